@@ -1,0 +1,41 @@
+"""Shared CLI plumbing: exit codes, consoles, JSON output, and the no-traceback guard."""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any, NoReturn
+
+import click
+from rich.console import Console
+
+# Exit codes (spec/09-formats.md, F-EXIT-CODES). Categorical, never counts.
+EXIT_OK = 0
+EXIT_INVALID = 1  # invalid input / nonconformant implementation / failed check
+EXIT_USAGE = 2  # usage or I/O error
+EXIT_HARNESS = 3  # harness or protocol error (conformance)
+EXIT_INTERNAL = 4  # a bug in agspec itself
+
+stdout = Console(highlight=False, soft_wrap=True)
+stderr = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def emit_json(data: Any) -> None:
+    """Print machine-readable JSON on stdout (no rich markup)."""
+    sys.stdout.write(json.dumps(data, indent=2, sort_keys=False, ensure_ascii=False) + "\n")
+    sys.stdout.flush()
+
+
+def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
+    stderr.print(f"[bold red]error[/]: {message}", markup=True)
+    raise SystemExit(code)
+
+
+FORMAT_OPTION = click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["table", "json"]),
+    default="table",
+    show_default=True,
+    help="Output as a rich table or machine-readable JSON.",
+)

@@ -1,0 +1,64 @@
+"""The ``agspec`` command line: a thin group; each command group lives in its own module."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import traceback
+
+import click
+
+from agspec import __version__
+from agspec.cli.common import EXIT_INTERNAL, EXIT_USAGE, stderr
+
+# command name -> "module:function" (imported lazily so a broken module never breaks the CLI)
+COMMANDS = {
+    "validate": "agspec.cli.dsl_cmds:validate",
+    "compile": "agspec.cli.dsl_cmds:compile_cmd",
+    "fmt": "agspec.cli.dsl_cmds:fmt",
+    "instance": "agspec.cli.instance_cmds:instance",
+    "fingerprint": "agspec.cli.instance_cmds:fingerprint",
+    "export": "agspec.cli.instance_cmds:export",
+    "catalogue": "agspec.cli.instance_cmds:catalogue",
+    "run": "agspec.cli.run_cmds:run",
+    "evaluate": "agspec.cli.run_cmds:evaluate",
+}
+
+
+class LazyGroup(click.Group):
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        target = COMMANDS.get(name)
+        if target is None:
+            return None
+        module, attr = target.split(":")
+        return getattr(importlib.import_module(module), attr)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="agspec")
+def cli() -> None:
+    """Executable specification and conformance toolkit for AssemblyGrid v1."""
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: click handles usage errors (exit 2); anything unexpected is an internal error."""
+    try:
+        cli.main(args=argv, prog_name="agspec", standalone_mode=True)
+    except SystemExit:
+        raise
+    except KeyboardInterrupt:
+        stderr.print("interrupted")
+        raise SystemExit(130)
+    except BrokenPipeError:
+        raise SystemExit(0)
+    except Exception:  # pragma: no cover - only reached on agspec bugs
+        stderr.print("[bold red]internal error[/]: agspec hit a bug; please file an issue with this report:")
+        stderr.print(traceback.format_exc(), markup=False)
+        raise SystemExit(EXIT_INTERNAL)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main(sys.argv[1:])

@@ -1,0 +1,127 @@
+"""Diagnostics: stable error codes with locations, rendered Rust/Elm style.
+
+Two layers:
+
+* :class:`Issue` is produced by checks that work on IR (plain JSON).  It points into the IR
+  with a JSON Pointer and knows nothing about files.
+* :class:`Diagnostic` is an Issue placed in a file (line/col), ready to show a person or to
+  emit as JSON.  ``locate`` turns the first into the second with a source map.
+
+Code ranges (spec/09-formats.md): AG0xx I/O and usage, AG1xx DSL syntax, AG2xx schema,
+AG3xx recipe semantics, AG4xx profile/scenario semantics and realizability, AG5xx instance IR.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Mapping, Sequence
+
+# (line, col, end_line, end_col), all 1-based; end_col is exclusive.
+Span = tuple[int, int, int, int]
+
+
+@dataclass(frozen=True)
+class Issue:
+    """A problem found in an IR document, located by JSON Pointer."""
+
+    code: str
+    message: str
+    pointer: str = ""
+    hint: str | None = None
+    severity: str = "error"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """A problem located in a source file."""
+
+    code: str
+    message: str
+    file: str | None = None
+    line: int | None = None
+    col: int | None = None
+    end_line: int | None = None
+    end_col: int | None = None
+    hint: str | None = None
+    severity: str = "error"
+    pointer: str | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    def header(self) -> str:
+        where = self.file or "<input>"
+        if self.line is not None:
+            where += f":{self.line}"
+            if self.col is not None:
+                where += f":{self.col}"
+        return f"{where}: {self.severity}[{self.code}]: {self.message}"
+
+    def render(self, source: str | None = None) -> str:
+        """Render as text; with the source text, show the offending line and a caret."""
+        out = [self.header()]
+        if source is not None and self.line is not None:
+            lines = source.splitlines()
+            if 1 <= self.line <= len(lines):
+                text = lines[self.line - 1]
+                num = str(self.line)
+                pad = " " * len(num)
+                col = max(1, self.col or 1)
+                if self.end_line in (None, self.line) and self.end_col and self.end_col > col:
+                    width = self.end_col - col
+                else:
+                    width = max(1, len(text.rstrip()) - col + 1)
+                width = max(1, min(width, max(1, len(text) - col + 1)))
+                out.append(f" {pad} |")
+                out.append(f" {num} | {text}")
+                out.append(f" {pad} | {' ' * (col - 1)}{'^' * width}")
+        for note in self.notes:
+            out.append(f"  = note: {note}")
+        if self.hint:
+            out.append(f"  = hint: {self.hint}")
+        return "\n".join(out)
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["notes"] = list(self.notes)
+        return {k: v for k, v in data.items() if v is not None and v != []}
+
+
+def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None) -> Diagnostic:
+    """Place an IR issue in its file, using the closest mapped ancestor of its pointer."""
+    span = None
+    if srcmap:
+        pointer = issue.pointer
+        while True:
+            if pointer in srcmap:
+                span = srcmap[pointer]
+                break
+            if not pointer:
+                break
+            pointer = pointer.rsplit("/", 1)[0]
+    line = col = end_line = end_col = None
+    if span is not None:
+        line, col, end_line, end_col = span
+    return Diagnostic(
+        code=issue.code,
+        message=issue.message,
+        file=file,
+        line=line,
+        col=col,
+        end_line=end_line,
+        end_col=end_col,
+        hint=issue.hint,
+        severity=issue.severity,
+        pointer=issue.pointer,
+    )
+
+
+def json_pointer(*parts: object) -> str:
+    """Build an RFC 6901 JSON Pointer from path parts."""
+    out = []
+    for part in parts:
+        text = str(part).replace("~", "~0").replace("/", "~1")
+        out.append(text)
+    return "/" + "/".join(out) if out else ""
+
+
+def has_errors(diags: Sequence[Diagnostic | Issue]) -> bool:
+    return any(d.severity == "error" for d in diags)
