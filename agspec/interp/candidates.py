@@ -1,0 +1,188 @@
+"""Readiness and execution candidates (spec R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT).
+
+Candidates are built from the global state once per decision epoch, before any action is
+applied.  They are *not* filtered by running activities or remote conflicts (O-EXPOSURE): that is
+left to joint admission (R-JOINT-ADMISSIBLE) and to the capacity diagnostic (M-CAPACITY).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+from typing import Any
+
+from agspec.interp import geometry
+from agspec.interp.model import Model, OperationSpec
+from agspec.interp.state import Cell, Product, State
+
+
+@dataclass(frozen=True)
+class Candidate:
+    cid: str
+    pid: int
+    recipe: str
+    op: OperationSpec
+    members: tuple[Cell, ...]  # row-major
+    roles: tuple[tuple[Cell, str], ...]  # member -> role, member order
+    holders: tuple[Cell, ...]
+    plan: Any  # geometry.Plan
+    target: tuple[float, float]  # operation site
+    resources: frozenset[str]
+
+    @property
+    def size(self) -> int:
+        return len(self.members)
+
+    @property
+    def group(self) -> tuple[int, str]:
+        """The operation occurrence (z, tau); its realizations are mutually exclusive."""
+        return (self.pid, self.op.id)
+
+
+def candidate_id(pid: int, op_id: str, members: tuple[Cell, ...]) -> str:
+    """R-IDS: candidate id string "op:{pid}:{op}:{i},{j};{i},{j}" with members row-major."""
+    return f"op:{pid}:{op_id}:" + ";".join(f"{i},{j}" for i, j in members)
+
+
+def xor_closed(product: Product, op: OperationSpec) -> bool:
+    """RC-XOR: an alternative is closed once a sibling has been chosen for this product."""
+    if op.xor_group is None:
+        return False
+    chosen = product.xor_choice.get(op.xor_group)
+    return chosen is not None and chosen != op.id
+
+
+def predecessors_done(product: Product, op: OperationSpec, model: Model) -> bool:
+    """RC-PRECEDENCE: every `after` entry is completed; a group entry needs its chosen alternative."""
+    groups = model.recipes[product.recipe].xor_groups
+    for pred in op.after:
+        if pred in groups:
+            chosen = product.xor_choice.get(pred)
+            if chosen is None or chosen not in product.completed:
+                return False
+        elif pred not in product.completed:
+            return False
+    return True
+
+
+def logically_ready(product: Product, op: OperationSpec, model: Model) -> bool:
+    """R-READY: not delivered, not completed, not executing, predecessors done, not XOR-closed."""
+    return (
+        not product.delivered
+        and op.id not in product.completed
+        and op.id not in product.in_progress
+        and not xor_closed(product, op)
+        and predecessors_done(product, op, model)
+    )
+
+
+def inputs_present(state: State, product: Product, op: OperationSpec) -> bool:
+    """R-READY (material): every input item of the occurrence is currently held by some robot."""
+    return all((product.pid, tok) in state.item_holder for tok in op.inputs)
+
+
+def ready_occurrences(state: State, model: Model) -> list[tuple[Product, OperationSpec]]:
+    """Occurrences that are logically ready and whose inputs exist, products ascending, ops topological."""
+    out = []
+    for product in state.products:
+        if product.delivered:
+            continue
+        for op in model.recipes[product.recipe].operations:
+            if logically_ready(product, op, model) and inputs_present(state, product, op):
+                out.append((product, op))
+    return out
+
+
+def assign_roles(op: OperationSpec, members: tuple[Cell, ...], holder_of: dict[str, Cell]) -> tuple[tuple[Cell, str], ...] | None:
+    """R-ROLE-ASSIGNMENT: bound roles to the holders of their inputs, the rest row-major in recipe order."""
+    assigned: dict[Cell, str] = {}
+    for name, binds in op.roles:
+        if binds is not None:
+            holder = holder_of.get(binds)
+            if holder is None or holder in assigned:
+                return None
+            assigned[holder] = name
+    free_roles = [name for name, binds in op.roles if binds is None]
+    rest = [m for m in members if m not in assigned]
+    for k, member in enumerate(rest):
+        # Extra members beyond the declared roles cannot occur once RC-ROLES validated the recipe.
+        assigned[member] = free_roles[k] if k < len(free_roles) else f"helper_extra_{k}"
+    return tuple((m, assigned[m]) for m in members)
+
+
+def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
+    """R-CANDIDATES: every admissible realization of every ready occurrence, at most once per key.
+
+    Returns the candidates sorted by (product id, operation id, members) and the number of
+    realizations rejected as motion-infeasible (M-GEOMETRY-REJECTIONS).
+    """
+    out: list[Candidate] = []
+    rejected = 0
+    t = state.t
+    robots = state.robots
+    for product, op in ready_occurrences(state, model):
+        holder_of = {tok: state.item_holder[(product.pid, tok)] for tok in op.inputs}
+        holders = tuple(sorted(set(holder_of.values())))
+        cap = min(op.kmax, model.k_topo)
+        if len(holders) > cap or any(not robots[h].free(t) for h in holders):
+            continue
+        if not all(model.adjacent(a, b) for a, b in combinations(holders, 2)):
+            continue
+        pool = [
+            c
+            for c in model.cells
+            if c not in holders
+            and robots[c].free(t)
+            and robots[c].holding is None
+            and all(model.adjacent(c, h) for h in holders)
+        ]
+        for extra in range(max(0, op.kmin - len(holders)), cap - len(holders) + 1):
+            for helpers in combinations(pool, extra):
+                members = tuple(sorted(holders + helpers))
+                if not (op.kmin <= len(members) <= cap):
+                    continue
+                if not all(model.adjacent(a, b) for a, b in combinations(helpers, 2)):
+                    continue
+                cand = realize(state, model, product, op, members, holders, holder_of)
+                if cand is None:
+                    rejected += 1
+                elif cand is not False:
+                    out.append(cand)
+    out.sort(key=lambda c: (c.pid, c.op.id, c.members))
+    return out, rejected
+
+
+def realize(state: State, model: Model, product: Product, op: OperationSpec, members, holders, holder_of):
+    """Roles, site, role targets and motion plan of one candidate (G-SITE, G-ROLE-TARGET, G-MOTION).
+
+    Returns None when the plan is motion-infeasible, False when roles cannot be filled.
+    """
+    roles = assign_roles(op, members, holder_of)
+    if roles is None:
+        return False
+    payload = float(model.profile.get("payload", 10.0))
+    n_bound = sum(1 for _, b in op.roles if b is not None)
+    if n_bound and product.mass / n_bound > payload:  # Capability: payload never binds in v1
+        return False
+    spacing = float(model.profile["spacing"])
+    site = geometry.operation_site(list(holders), list(members), spacing)
+    targets = geometry.role_targets(site, list(roles), float(model.profile["role_target_offset"]), spacing)
+    plan = geometry.plan_activity(
+        [(m, state.robots[m].pose, targets[m]) for m in members], op.duration, model.profile, common_target=site
+    )
+    if plan is None:
+        return None
+    resources = {f"operation:{product.pid}:{op.id}"} | {f"token:{product.pid}:{tok}" for tok in op.inputs}
+    resources |= set(op.resources)
+    return Candidate(
+        cid=candidate_id(product.pid, op.id, members),
+        pid=product.pid,
+        recipe=product.recipe,
+        op=op,
+        members=members,
+        roles=roles,
+        holders=holders,
+        plan=plan,
+        target=site,
+        resources=frozenset(resources),
+    )

@@ -1,0 +1,215 @@
+"""Read-only view of an instance IR that the rules consult (spec D-GRID, D-TOPOLOGY, RC-*).
+
+Everything here is derived once from the instance IR at reset and never changes during an episode.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import networkx as nx
+
+Cell = tuple[int, int]
+
+# DIRECTIONS index d -> (d_row, d_col) (O-ACTION-ENCODING)
+DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
+DIRECTION_NAMES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+
+
+@dataclass(frozen=True)
+class OperationSpec:
+    id: str
+    type: str
+    inputs: tuple[str, ...]
+    output: str
+    after: tuple[str, ...]
+    kmin: int
+    kmax: int
+    roles: tuple[tuple[str, str | None], ...]  # (role name, bound input token or None), recipe order
+    resources: tuple[str, ...]
+    duration: int
+    weight: float
+    xor_group: str | None
+
+
+@dataclass(frozen=True)
+class RecipeSpec:
+    id: str
+    value: float
+    raw: tuple[str, ...]
+    operations: tuple[OperationSpec, ...]  # topological order, ties by id
+    xor_groups: dict[str, tuple[str, ...]]
+    terminal: str
+    critical_path: int  # longest chain of operation durations (RC-DURATION)
+
+    def op(self, op_id: str) -> OperationSpec:
+        for op in self.operations:
+            if op.id == op_id:
+                return op
+        raise KeyError(op_id)
+
+    @cached_property
+    def downstream(self) -> dict[str, int]:
+        """Longest duration chain strictly after each operation (for productive weights)."""
+        succ: dict[str, list[str]] = {op.id: [] for op in self.operations}
+        group_alts = self.xor_groups
+        for op in self.operations:
+            for pred in op.after:
+                for p in group_alts.get(pred, (pred,)):
+                    succ[p].append(op.id)
+        memo: dict[str, int] = {}
+        for op in reversed(self.operations):
+            memo[op.id] = max((self.op(s).duration + memo[s] for s in succ[op.id]), default=0)
+        return memo
+
+
+def _recipe_spec(ir: dict[str, Any]) -> RecipeSpec:
+    groups = {g["id"]: tuple(g["alternatives"]) for g in ir.get("xor", [])}
+    group_of = {alt: gid for gid, alts in groups.items() for alt in alts}
+    ops = {}
+    graph = nx.DiGraph()
+    for op in ir["operations"]:
+        graph.add_node(op["id"])
+    for op in ir["operations"]:
+        for pred in op.get("after", []):
+            for p in groups.get(pred, (pred,)):
+                graph.add_edge(p, op["id"])
+        ops[op["id"]] = OperationSpec(
+            id=op["id"],
+            type=op.get("type", op["id"]),
+            inputs=tuple(op["inputs"]),
+            output=op["outputs"][0],
+            after=tuple(op.get("after", [])),
+            kmin=int(op["arity"][0]),
+            kmax=int(op["arity"][1]),
+            roles=tuple((r["name"], r.get("binds")) for r in op["roles"]),
+            resources=tuple(op.get("resources", [])),
+            duration=int(op["duration"]),
+            weight=float(op.get("weight", 1.0)),
+            xor_group=group_of.get(op["id"]),
+        )
+    order = list(nx.lexicographical_topological_sort(graph))
+    consumed = {tok for op in ops.values() for tok in op.inputs}
+    produced = [op.output for op in ops.values() if op.output not in consumed]
+    terminal = produced[0] if produced else "FINAL"
+    for node in graph.nodes:
+        graph.nodes[node]["d"] = ops[node].duration
+    critical = 0
+    for node in order:  # longest path by node weights
+        best = max((graph.nodes[p]["cp"] for p in graph.predecessors(node)), default=0)
+        graph.nodes[node]["cp"] = best + ops[node].duration
+        critical = max(critical, graph.nodes[node]["cp"])
+    return RecipeSpec(
+        id=ir["id"],
+        value=float(ir.get("value", 1.0)),
+        raw=tuple(ir["raw"]),
+        operations=tuple(ops[o] for o in order),
+        xor_groups=groups,
+        terminal=terminal,
+        critical_path=critical,
+    )
+
+
+@dataclass(frozen=True)
+class Model:
+    instance: dict[str, Any]
+    rows: int
+    cols: int
+    profile: dict[str, Any]
+    recipes: dict[str, RecipeSpec]
+    resource_capacity: dict[str, int]
+    wip_cap: int
+    release_interval: int
+    mode: str  # "continuing" | "batch"
+    horizon: int
+    batch_size: int | None
+    shelf_capacity: int
+    replenish_interval: int
+    support_timeout: int
+    switch_lock: int
+    support_visible: bool
+    k_topo: int
+    pick_duration: int
+    handoff_duration: int
+    deliver_duration: int
+
+    @staticmethod
+    def from_instance(instance: dict[str, Any]) -> "Model":
+        sc = instance["scenario"]
+        grid = sc["grid"]
+        ev = sc["evaluation"]
+        prof = instance["profile"]
+        caps: dict[str, int] = {}
+        for r in instance["recipes"].values():
+            caps.update({k: int(v) for k, v in r.get("resources", {}).items()})
+        caps.update({k: int(v) for k, v in sc.get("resources", {}).items()})
+        rows, cols = int(grid["rows"]), int(grid["cols"])
+        return Model(
+            instance=instance,
+            rows=rows,
+            cols=cols,
+            profile=prof,
+            recipes={rid: _recipe_spec(r) for rid, r in instance["recipes"].items()},
+            resource_capacity=caps,
+            wip_cap=int(sc["release"]["wip_cap"]),
+            release_interval=int(sc["release"]["interval"]),
+            mode=ev["mode"],
+            horizon=int(ev.get("horizon", ev.get("timeout", 0))),
+            batch_size=ev.get("batch_size"),
+            shelf_capacity=int(sc["shelves"]["capacity"]),
+            replenish_interval=int(sc["shelves"]["replenish_interval"]),
+            support_timeout=int(sc["coordination"]["support_timeout"]),
+            switch_lock=int(sc["coordination"]["switch_lock"]),
+            support_visible=bool(sc["coordination"].get("support_visible", True)),
+            k_topo=_k_topo(rows, cols, grid.get("topology", "moore"), int(grid.get("radius", 1))),
+            pick_duration=int(prof["durations"]["pick"]),
+            handoff_duration=int(prof["durations"]["handoff"]),
+            deliver_duration=int(prof["durations"]["deliver"]),
+        )
+
+    @cached_property
+    def topology(self) -> str:
+        return self.instance["scenario"]["grid"].get("topology", "moore")
+
+    @cached_property
+    def cells(self) -> tuple[Cell, ...]:
+        return tuple((i, j) for i in range(self.rows) for j in range(self.cols))
+
+    @cached_property
+    def neighbours(self) -> dict[Cell, tuple[Cell, ...]]:
+        """Open neighbourhood N(u) minus u, in row-major order (D-TOPOLOGY; v1: Moore radius 1)."""
+        out = {}
+        for c in self.cells:
+            out[c] = tuple(d for d in self.cells if d != c and self.adjacent(c, d))
+        return out
+
+    def adjacent(self, a: Cell, b: Cell) -> bool:
+        di, dj = abs(a[0] - b[0]), abs(a[1] - b[1])
+        if a == b:
+            return False
+        if self.topology == "moore":
+            return max(di, dj) <= 1
+        if self.topology == "von_neumann":
+            return di + dj <= 1
+        return di + dj <= 1 and (di == 0 if self.rows == 1 else dj == 0 if self.cols == 1 else True)
+
+    def resource_cap(self, name: str) -> int:
+        return self.resource_capacity.get(name, 1)
+
+
+def _k_topo(rows: int, cols: int, topology: str, radius: int) -> int:
+    """D-KTOPO: clique number of G_manip (networkx), never a free parameter."""
+    g = nx.Graph()
+    cells = [(i, j) for i in range(rows) for j in range(cols)]
+    g.add_nodes_from(cells)
+    for a in cells:
+        for b in cells:
+            if a < b:
+                di, dj = abs(a[0] - b[0]), abs(a[1] - b[1])
+                if topology == "moore" and max(di, dj) <= radius:
+                    g.add_edge(a, b)
+                elif topology != "moore" and di + dj <= radius:
+                    g.add_edge(a, b)
+    return max((len(c) for c in nx.find_cliques(g)), default=1)

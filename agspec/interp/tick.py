@@ -1,0 +1,194 @@
+"""The simulator: ``reset`` and ``step`` executing the rules in R-TICK-ORDER.
+
+    R-TICK-ORDER (spec/05-transition.md), one decision epoch t:
+      1. pre-action snapshot of s_t: candidates, options, observations and masks, capacity K*(s_t),
+         ready/feasible occurrences (already built when s_t was entered)
+      2. action validation (R-ACTION-VALIDATION): masked or out-of-range actions become idle
+      3. picks (R-PICK), 4. handoffs (R-HANDOFF)
+      5. support recording (R-SUPPORT), admission (R-ADMISSION), in-epoch expiry (R-EXPIRY)
+      6. deliveries (R-DELIVERY)
+      7. metric sampling at t (M-*)
+      8. clock advance t <- t+1 (R-CLOCK)
+      9. completions (R-COMPLETION), 10. replenishment (R-REPLENISH), 11. release (R-RELEASE)
+     12. support expiry (R-SUPPORT-LIFECYCLE), 13. finished reservations dropped
+     14. WIP sample, no-progress tick (M-NO-PROGRESS), termination (R-TERMINATION)
+     15. candidates and observations rebuilt for s_{t+1}
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+from agspec.interp import geometry, rules
+from agspec.interp.candidates import Candidate, build_candidates, ready_occurrences
+from agspec.interp.metrics import MetricsAccumulator, capacity_snapshot
+from agspec.interp.model import Model
+from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, observation
+from agspec.interp.state import Cell, Robot, State, cell_id
+
+
+@dataclass
+class Decision:
+    """The pre-action snapshot of one decision epoch (R-TICK-ORDER step 1)."""
+
+    candidates: list[Candidate]
+    by_id: dict[str, Candidate]
+    options: dict[Cell, Options]
+    masks: dict[Cell, list[bool]]
+    rejected: int
+
+
+@dataclass
+class StepResult:
+    t: int  # the epoch the actions were applied at
+    events: list[dict[str, Any]] = field(default_factory=list)
+    applied: dict[str, int] = field(default_factory=dict)  # robot id -> action actually applied
+    terminated: bool = False
+    truncated: bool = False
+
+
+def initial_state(model: Model) -> State:
+    """S-INSTANCE: robots at rest, shelves stocked and access as recorded in the realization."""
+    spacing = float(model.profile["spacing"])
+    real = model.instance["realization"]
+    shelves = [dict() for _ in range(model.rows)]
+    for entry in real["shelves"]:
+        shelves[int(entry["row"])] = {tok: int(n) for tok, n in entry["stock"].items()}
+    access = {int(e["shelf_row"]): tuple(int(r) for r in e["robot_rows"]) for e in real["shelf_access"]}
+    robots = {c: Robot(cell=c, pose=geometry.rest_pose(c, spacing)) for c in model.cells}
+    return State(t=0, rows=model.rows, cols=model.cols, robots=robots, shelves=shelves, shelf_access=access)
+
+
+class Simulator:
+    """The reference interpreter of AssemblyGrid v1 for one instance.
+
+    Deterministic: the same instance, execution seed and joint actions give the same states
+    (D-DETERMINISM).  In v1 no rule draws from the execution stream, so the seed is recorded only.
+    """
+
+    def __init__(self, instance: Mapping[str, Any]):
+        self.model = Model.from_instance(dict(instance))
+        self.state: State
+        self.decision: Decision
+        self.metrics: MetricsAccumulator
+        self.execution_seed: int | None = None
+        self.reset()
+
+    # ------------------------------------------------------------------ reset / observe
+
+    def reset(self, execution_seed: int | None = None) -> None:
+        seeds = self.model.instance.get("seeds", {})
+        self.execution_seed = execution_seed if execution_seed is not None else seeds.get("execution")
+        self.state = initial_state(self.model)
+        self.metrics = MetricsAccumulator(self.model)
+        self.reset_events: list[dict[str, Any]] = []
+        rules.release_product(self.state, self.model, self.reset_events, forced=True)  # R-RELEASE at t = 0
+        self._enter_epoch()
+
+    def _enter_epoch(self) -> None:
+        """R-TICK-ORDER step 15: build the decision snapshot of the current state."""
+        state, model = self.state, self.model
+        candidates, rejected = build_candidates(state, model)
+        options = build_options(state, model, candidates)
+        masks = {c: action_mask(state, model, c, options[c]) for c in model.cells}
+        self.decision = Decision(candidates, {c.cid: c for c in candidates}, options, masks, rejected)
+        rules.bump(state, "reject_motion_infeasible", rejected)
+
+    @property
+    def t(self) -> int:
+        return self.state.t
+
+    def agents(self) -> list[str]:
+        return [cell_id(c) for c in self.model.cells]
+
+    def observe(self, robot: str | None = None) -> dict[str, dict[str, Any]] | dict[str, Any]:
+        """O-OBSERVATION for one robot, or for all robots keyed by robot id."""
+        d = self.decision
+        if robot is not None:
+            cell = tuple(int(x) for x in robot.split(","))
+            return observation(self.state, self.model, cell, d.options[cell], d.masks[cell])
+        return {cell_id(c): observation(self.state, self.model, c, d.options[c], d.masks[c]) for c in self.model.cells}
+
+    def masks(self) -> dict[str, list[bool]]:
+        return {cell_id(c): list(m) for c, m in self.decision.masks.items()}
+
+    @property
+    def done(self) -> bool:
+        return self.terminated or self.truncated
+
+    @property
+    def terminated(self) -> bool:
+        m, s = self.model, self.state
+        return m.mode == "batch" and s.released >= (m.batch_size or 0) and s.delivered >= (m.batch_size or 0)
+
+    @property
+    def truncated(self) -> bool:
+        return self.state.t >= self.model.horizon and not self.terminated
+
+    # ------------------------------------------------------------------ step
+
+    def step(self, joint_action: Mapping[str, int] | Sequence[int]) -> StepResult:
+        """Apply one joint action (robot id -> action int, or a list in row-major order)."""
+        state, model, d = self.state, self.model, self.decision
+        if isinstance(joint_action, Mapping):
+            actions = {c: int(joint_action.get(cell_id(c), IDLE)) for c in model.cells}
+        else:
+            actions = {c: int(a) for c, a in zip(model.cells, joint_action)}
+        result = StepResult(t=state.t)
+        events = result.events
+
+        # 1. pre-action diagnostics on s_t
+        capacity = capacity_snapshot(state, model, d.candidates)
+        ready = ready_occurrences(state, model)
+        feasible = {c.group for c in capacity.compatible}
+        self.metrics.pre_action(capacity, len(ready), sum(1 for p, op in ready if (p.pid, op.id) in feasible))
+
+        # 2. action validation
+        decoded: dict[Cell, tuple[str, Any]] = {}
+        for c in model.cells:
+            a = actions[c]
+            if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
+                rules.bump(state, "invalid_attempts")
+                rules.bump(state, "reject_locally_invalid")
+                if a != IDLE:
+                    rules.bump(state, "unmasked_invalid_attempts")
+                events.append({"type": "action_coerced", "robot": cell_id(c), "action": a})
+                a = IDLE
+            result.applied[cell_id(c)] = a
+            decoded[c] = decode(a, d.options[c])
+
+        progress = 0
+        n_acts = len(state.activities)
+        # 3. picks
+        rules.start_picks(state, model, [(c, arg) for c, (k, arg) in decoded.items() if k == "pick"], events)
+        # 4. handoffs
+        sends = {c: arg for c, (k, arg) in decoded.items() if k == "handoff"}
+        receives = {c: arg for c, (k, arg) in decoded.items() if k == "receive"}
+        rules.start_handoffs(state, model, sends, receives, events)
+        # 5. support, admission, in-epoch expiry
+        rules.record_supports(state, model, {c: arg for c, (k, arg) in decoded.items() if k == "support"}, events)
+        progress += rules.admit_candidates(state, model, d.by_id, events)
+        rules.expire_invalid_proposals(state, set(d.by_id), events)
+        # 6. deliveries
+        rules.start_deliveries(state, model, [c for c, (k, _) in decoded.items() if k == "deliver"], events)
+        # 7. metric sampling at t
+        self.metrics.sample(state)
+        # 8. clock
+        state.t += 1
+        # 9.-13.
+        progress += rules.complete_activities(state, model, events)
+        rules.replenish_shelves(state, model, events)
+        rules.release_product(state, model, events)
+        rules.expire_proposals(state, events)
+        rules.drop_finished_reservations(state)
+        # 14. post-advance samples
+        self.metrics.post_advance(state, progress)
+        result.terminated, result.truncated = self.terminated, self.truncated
+        del n_acts
+        # 15. next decision snapshot
+        self._enter_epoch()
+        return result
+
+    def final_metrics(self) -> dict[str, Any]:
+        return self.metrics.final(self.state)
