@@ -125,7 +125,7 @@ def start_picks(state: State, model: Model, picks: list[tuple[Cell, dict]], even
         state.shelves[row][token] -= 1
         product.raw_taken.add(token)
         act = Activity(
-            aid=f"pick:{product.pid}:{token}:{cell_id(cell)}:{t}",
+            aid=f"pick@{t}:{product.pid}:{token}:{cell_id(cell)}",
             kind="pick",
             members=(cell,),
             resources=resources,
@@ -188,7 +188,7 @@ def start_handoffs(state: State, model: Model, sends: dict[Cell, int], receives:
             continue
         engaged.update((sender_cell, recv_cell))
         act = Activity(
-            aid=f"handoff:{item[0]}:{item[1]}:{cell_id(sender_cell)}:{t}",
+            aid=f"handoff@{t}:{item[0]}:{item[1]}:{cell_id(sender_cell)}>{cell_id(recv_cell)}",
             kind="handoff",
             members=(sender_cell, recv_cell),
             resources=resources,
@@ -290,10 +290,9 @@ def admit(state: State, model: Model, cand: Candidate, proposal: Proposal, event
     """Create the activity of an admitted candidate; members, roles and site are fixed (INV-LIFETIME)."""
     t = state.t
     product = state.products[cand.pid]
-    team = state.next_team
     state.next_team += 1
     act = Activity(
-        aid=f"team:{team}",
+        aid=f"op@{t}:{cand.cid}",  # R-IDS: start epoch + candidate key identify an activity
         kind="operation",
         members=cand.members,
         resources=cand.resources,
@@ -391,7 +390,7 @@ def start_deliveries(state: State, model: Model, deliverers: list[Cell], events:
             count_block(state, cause, events, what)
             continue
         act = Activity(
-            aid=f"deliver:{product.pid}:{cell_id(cell)}:{t}",
+            aid=f"deliver@{t}:{product.pid}:{cell_id(cell)}",
             kind="deliver",
             members=(cell,),
             resources=resources,

@@ -1,0 +1,28 @@
+"""Random masked reference (spec C-RANDOM): each robot samples uniformly among its legal actions."""
+
+from __future__ import annotations
+
+import random
+from typing import Any, Mapping
+
+from agspec.controllers.base import Obs
+
+
+class RandomMaskedController:
+    name = "random"
+    information = "local"
+
+    def __init__(self, seed: int | None = None):
+        self._seed = seed
+        self._rng = random.Random(seed)
+
+    def reset(self, seed: int | None = None) -> None:
+        # C-RANDOM: one seeded stream per episode; robots draw in row-major order.
+        self._rng = random.Random(seed if seed is not None else self._seed)
+
+    def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]:
+        out = {}
+        for robot in sorted(observations, key=lambda r: tuple(int(x) for x in r.split(","))):
+            legal = [a for a, ok in enumerate(observations[robot]["mask"]) if ok]
+            out[robot] = self._rng.choice(legal)
+        return out
