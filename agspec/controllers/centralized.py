@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from agspec.controllers.base import IDLE, OP0, Obs
-from agspec.controllers.greedy import GreedyController, logistics_choice
+from agspec.controllers.greedy import GreedyController
 from agspec.interp.candidates import Candidate
 from agspec.interp.metrics import capacity_problem
 
@@ -26,15 +26,10 @@ def productive_weight(sim, cand: Candidate) -> float:
     state, model = sim.state, sim.model
     product = state.products[cand.pid]
     recipe = model.recipes[product.recipe]
-    import os
-    downstream = recipe.downstream[cand.op.id]
-    if os.environ.get("AGW_DOWN") == "incl":
-        downstream += cand.op.duration
-    if os.environ.get("AGW_REM") == "crit":
-        left = [op for op in recipe.operations if op.id not in product.completed]
-        remaining = max((op.duration + recipe.downstream[op.id] for op in left), default=0)
-    else:
-        remaining = sum(op.duration for op in recipe.operations if op.id not in product.completed)
+    # RES-CENTRALIZED-WEIGHT: the downstream critical path includes the operation itself and the
+    # remaining work is the summed duration of the product's uncompleted operations.
+    downstream = cand.op.duration + recipe.downstream[cand.op.id]
+    remaining = sum(op.duration for op in recipe.operations if op.id not in product.completed)
     slack = product.due_time - state.t
     urgency = min(3.0, max(1.0, 2.0 - slack / max(1, remaining + 2)))
     crit = max(1, recipe.critical_path)
@@ -76,17 +71,12 @@ def weighted_selection(problem) -> list:
     best_max = [max(c.weight for c in g) for g in options]
     best = {"score": sum(c.weight for c in greedy), "set": list(greedy)}
 
-    import os
-    leaf_only = os.environ.get("AGU") == "leaf"
-
     def dfs(k: int, chosen: list, score: float) -> None:
-        if (not leaf_only or k == len(options)) and score > best["score"] + 1e-12:
+        if score > best["score"] + 1e-12:
             best["score"], best["set"] = score, list(chosen)
         if k == len(options):
             return
-        import os
-        bound = score + (len(options) - k) if os.environ.get("AGB") == "count" else score + sum(best_max[k:])
-        if bound <= best["score"] + 1e-12:
+        if score + sum(best_max[k:]) <= best["score"] + 1e-12:  # admissible bound
             return
         for c in options[k]:
             if _compatible(c, chosen, problem.conflicts) and _resources_ok(problem, chosen + [c]):
@@ -138,9 +128,4 @@ class CentralizedController:
         for k, opt in enumerate(options):
             if opt["id"] in selected and mask[OP0 + k]:
                 return OP0 + k
-        import os
-        if os.environ.get("AGV") == "fullpa":
-            return self._pa.act_one(obs)
-        if pending is not None:
-            return IDLE
-        return logistics_choice(obs, parallel_aware=True)
+        return self._pa.act_one(obs)  # robots outside the selection follow Parallel-aware
