@@ -81,16 +81,21 @@ def inputs_present(state: State, product: Product, op: OperationSpec) -> bool:
     return all((product.pid, tok) in state.item_holder for tok in op.inputs)
 
 
-def ready_occurrences(state: State, model: Model) -> list[tuple[Product, OperationSpec]]:
-    """Occurrences that are logically ready and whose inputs exist, products ascending, ops topological."""
+def logically_ready_occurrences(state: State, model: Model) -> list[tuple[Product, OperationSpec]]:
+    """R-READY: logically ready occurrences (material not required), products ascending, ops topological."""
     out = []
     for product in state.products:
         if product.delivered:
             continue
         for op in model.recipes[product.recipe].operations:
-            if logically_ready(product, op, model) and inputs_present(state, product, op):
+            if logically_ready(product, op, model):
                 out.append((product, op))
     return out
+
+
+def ready_occurrences(state: State, model: Model) -> list[tuple[Product, OperationSpec]]:
+    """Occurrences that are logically ready and whose inputs exist (the candidate generator's input)."""
+    return [(p, op) for p, op in logically_ready_occurrences(state, model) if inputs_present(state, p, op)]
 
 
 def assign_roles(op: OperationSpec, members: tuple[Cell, ...], holder_of: dict[str, Cell]) -> tuple[tuple[Cell, str], ...] | None:

@@ -107,6 +107,7 @@ class MetricsAccumulator:
         self.util_exact: list[float] = []
         self.util_approx: list[float] = []
         self.ready_sum = 0
+        self.ready_material_sum = 0
         self.feasible_sum = 0
         self.wip_sum = 0
         self.wip_samples = 0
@@ -114,11 +115,12 @@ class MetricsAccumulator:
         self._k_star = 0
         self._exact = True
 
-    def pre_action(self, capacity: CapacitySnapshot, n_ready: int, n_feasible: int) -> None:
+    def pre_action(self, capacity: CapacitySnapshot, n_ready: int, n_ready_material: int, n_feasible: int) -> None:
         self._k_star, self._exact = capacity.k_star, capacity.exact
         self.k_star_sum += capacity.k_star
         self.exact_samples += 1 if capacity.exact else 0
         self.ready_sum += n_ready
+        self.ready_material_sum += n_ready_material
         self.feasible_sum += n_feasible
 
     def sample(self, state: State) -> None:
@@ -205,6 +207,8 @@ class MetricsAccumulator:
             "robot_occupancy": self.busy_sum / max(1, self.samples),
             "ready_feasible_fraction": self.feasible_sum / self.ready_sum if self.ready_sum else None,
             "blocked_ready_rate": 1 - self.feasible_sum / self.ready_sum if self.ready_sum else None,
+            # DIV-BR-READY-SET: the original release's variant counts only occurrences whose inputs exist
+            "blocked_ready_rate_material": 1 - self.feasible_sum / self.ready_material_sum if self.ready_material_sum else None,
             "no_progress_ticks": self.no_progress,
             "handoffs": int(c.get("handoff_count", 0)),
             "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 from agspec.interp import geometry, rules
-from agspec.interp.candidates import Candidate, build_candidates, ready_occurrences
+from agspec.interp.candidates import Candidate, build_candidates, logically_ready_occurrences, inputs_present
 from agspec.interp.metrics import MetricsAccumulator, capacity_snapshot
 from agspec.interp.model import Model
 from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, observation
@@ -140,9 +140,11 @@ class Simulator:
 
         # 1. pre-action diagnostics on s_t
         capacity = capacity_snapshot(state, model, d.candidates)
-        ready = ready_occurrences(state, model)
-        feasible = {c.group for c in capacity.compatible}
-        self.metrics.pre_action(capacity, len(ready), sum(1 for p, op in ready if (p.pid, op.id) in feasible))
+        ready = logically_ready_occurrences(state, model)  # M-RF-BR: R_t (paper: logical readiness)
+        with_material = [(p, op) for p, op in ready if inputs_present(state, p, op)]  # DIV-BR-READY-SET
+        feasible = {c.group for c in capacity.compatible}  # F_t: >= 1 candidate compatible with commitments
+        n_feasible = sum(1 for p, op in ready if (p.pid, op.id) in feasible)
+        self.metrics.pre_action(capacity, len(ready), len(with_material), n_feasible)
 
         # 2. action validation
         decoded: dict[Cell, tuple[str, Any]] = {}

@@ -1,0 +1,567 @@
+"""Exact productive-concurrency capacity K* (spec M-CAPACITY).
+
+Paper, "Productive concurrency" and appendix "State-dependent feasibility": with E_run the running
+recipe-operation activities and C_new the individually admissible candidates of state s_t,
+
+    K*(s_t) = max |I| over I ⊆ E_run ∪ {e(c)}, I independent in the conflict graph G_op,
+              E_run ⊆ I, and |{e ∈ I : ρ ∈ res(e)}| + n_ext(ρ) <= cap(ρ) for every resource ρ.
+
+Two activities are incompatible when they share a robot or an exclusive resource, violate the
+geometric rule (the caller's ``conflicts``), are alternative realizations of one operation
+occurrence (same ``group`` = (product, op)), or belong to different operations of one product's
+XOR group (same ``xor_key``).  Finite capacities above one are cardinality constraints on the
+whole selection, not pairwise edges.
+
+This module knows nothing about the interpreter: a :class:`CapacityProblem` is plain data.  The
+running activities are fixed members of every I, so only their number (and total weight) is
+needed; their resource use must be included in ``resource_external_use`` together with the
+logistics reservations (both are committed users outside the candidate choice).
+
+Exactness (resolution RES-CAPACITY-EXACT): the original release switches to a greedy lower bound
+above 64 candidates / 6 groups / 100,000 combinations; agspec is exact on every state.  The
+search is a branch and bound over groups (include one option, or skip), on bitsets:
+
+1. the live candidate set is split into independent components (connected through conflicts,
+   groups, XOR keys and *binding* finite resources) that are solved separately and memoised;
+2. each component branches on its first group in the canonical order, options in canonical
+   order, then "skip";
+3. the upper bound is a greedy clique cover of the live conflict graph (at most one activity per
+   clique), also capped by the number of live groups (count) or the sum of group maxima
+   (weighted); a first-fit completion that meets the bound ends the node at once.
+
+Reported selection (resolution RES-CAPACITY-TIEBREAK): the optimum value is unique, the set is
+not.  We report the set the original's search reports whenever that search is exact: the greedy
+seed if it is optimal, otherwise the first optimal set in its depth-first order (groups by
+(size, product, op); options by (size, duration, id) for count or (-weight, id) for weight;
+including before skipping).  Components do not change that order: the first optimal assignment of
+a product of independent choices is the product of the components' first optimal assignments.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Hashable, Iterable, Mapping
+
+DEFAULT_NODE_BUDGET = 2_000_000
+WEIGHT_TOLERANCE = 1e-9
+HEURISTIC_MIN_CANDIDATES = 12  # live candidates from which a node also runs the floor heuristic  # weighted values within this (relative) tolerance count as equal
+
+
+@dataclass(frozen=True)
+class Cand:
+    """One prospective activity e(c) of an individually admissible candidate (M-CAPACITY).
+
+    ``group`` identifies the operation occurrence, normally (product id, op id): alternative
+    realizations of one occurrence exclude each other.  Candidates of *different* groups with
+    the same non-None ``xor_key`` (normally (product id, xor group id)) exclude each other.
+    ``size``, ``duration`` and ``margin`` (coalition size, total planned duration, minimum reach
+    margin) only order the search and the greedy bound; ``weight`` is the productive weight.
+    """
+
+    index: int
+    group: Hashable
+    xor_key: Hashable | None = None
+    resources: tuple[str, ...] = ()
+    weight: float = 1.0
+    size: int = 1
+    duration: int = 1
+    margin: float = 0.0
+    id: str = ""
+
+
+@dataclass(frozen=True)
+class CapacityProblem:
+    """The capacity question of one state (M-CAPACITY).
+
+    ``conflicts`` holds pairwise incompatibilities as ``frozenset({i, j})`` of :attr:`Cand.index`
+    values (shared robot, geometry, or anything else the caller knows about).  Resources missing
+    from ``resource_capacity`` have capacity 1.  ``resource_external_use`` counts committed users
+    outside the choice: logistics reservations and running operation teams.
+    """
+
+    running: int
+    candidates: list[Cand]
+    conflicts: set[frozenset[int]] = field(default_factory=set)
+    resource_capacity: Mapping[str, int] = field(default_factory=dict)
+    resource_external_use: Mapping[str, int] = field(default_factory=dict)
+    running_weight: float = 0.0
+
+    def residual_capacity(self, resource: str) -> int:
+        """cap(ρ) − n_ext(ρ): how many more users ρ admits."""
+        return self.resource_capacity.get(resource, 1) - self.resource_external_use.get(resource, 0)
+
+
+@dataclass(frozen=True)
+class CapacityResult:
+    """K* = running + |selected| (count mode), with the selected candidate ids (ascending).
+
+    ``weighted_value`` = running weight + Σ weights of the selection.  ``exact`` is False only
+    for greedy bounds and for searches that exhausted their node budget.
+    """
+
+    k_star: int
+    selected: tuple[str, ...]
+    exact: bool
+    weighted_value: float
+    nodes_explored: int
+
+
+# --------------------------------------------------------------------------------------------
+# Canonical orders (shared by the search and the greedy bounds)
+# --------------------------------------------------------------------------------------------
+
+
+def _count_option_key(c: Cand):
+    return (c.size, c.duration, c.id)
+
+
+def _weight_option_key(c: Cand):
+    return (-c.weight, c.id)
+
+
+def _greedy_count_key(c: Cand):
+    return (c.size, c.duration, -c.margin, c.id)
+
+
+def _greedy_weight_key(c: Cand):
+    return (-c.weight, c.size, -c.margin, c.id)
+
+
+def _exclusive(a: Cand, b: Cand, conflicts: set[frozenset[int]]) -> bool:
+    """Pairwise incompatibility: same group, XOR siblings, or a listed conflict (M-CAPACITY)."""
+    if a.group == b.group:
+        return True
+    if a.xor_key is not None and a.xor_key == b.xor_key:
+        return True
+    return frozenset((a.index, b.index)) in conflicts
+
+
+def _result(problem: CapacityProblem, chosen: list[Cand], exact: bool, nodes: int) -> CapacityResult:
+    return CapacityResult(
+        k_star=problem.running + len(chosen),
+        selected=tuple(sorted(c.id for c in chosen)),
+        exact=exact,
+        weighted_value=problem.running_weight + math.fsum(c.weight for c in chosen),
+        nodes_explored=nodes,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Greedy lower bounds (the original release's fallback, kept for diagnostics)
+# --------------------------------------------------------------------------------------------
+
+
+def _first_fit(problem: CapacityProblem, key: Callable[[Cand], object]) -> list[Cand]:
+    residual: dict[str, int] = {}
+    chosen: list[Cand] = []
+    for cand in sorted(problem.candidates, key=key):
+        resources = set(cand.resources)
+        if any(residual.setdefault(r, problem.residual_capacity(r)) <= 0 for r in resources):
+            continue
+        if any(_exclusive(cand, other, problem.conflicts) for other in chosen):
+            continue
+        chosen.append(cand)
+        for r in resources:
+            residual[r] -= 1
+    return chosen
+
+
+def greedy_count(problem: CapacityProblem) -> CapacityResult:
+    """The original's deterministic greedy lower bound for K* (M-CAPACITY, diagnostics only):
+    candidates sorted by (size, total duration, −min margin, id), first fit.  ``exact`` = False."""
+    return _result(problem, _first_fit(problem, _greedy_count_key), False, 0)
+
+
+def greedy_weighted(problem: CapacityProblem) -> CapacityResult:
+    """The original's greedy lower bound for the weighted capacity P*: candidates sorted by
+    (−weight, size, −min margin, id), first fit.  ``exact`` = False."""
+    return _result(problem, _first_fit(problem, _greedy_weight_key), False, 0)
+
+
+# --------------------------------------------------------------------------------------------
+# Exact search
+# --------------------------------------------------------------------------------------------
+
+
+def _bits(mask: int) -> Iterable[int]:
+    while mask:
+        low = mask & -mask
+        yield low.bit_length() - 1
+        mask ^= low
+
+
+class _Search:
+    """Branch and bound over one problem, on bitsets.
+
+    Local index = position in the depth-first order (groups in order, options in order), so the
+    lowest set bit of a live set is the first option of its first group, and first fit in bit
+    order is the lexicographically first feasible assignment.
+
+    ``solve(live, residual, floor)`` answers "the best selection on ``live`` if its value beats
+    ``floor``": it returns ``(value, mask, True)`` with the optimum and its first optimal
+    selection in depth-first order, or ``(bound, None, False)`` when the optimum is known to be
+    at most ``floor`` (fail-hard).  Both kinds of answers are memoised.
+    """
+
+    def __init__(self, problem: CapacityProblem, weighted: bool, node_budget: int):
+        self.weighted = weighted
+        self.node_budget = node_budget
+        self.nodes = 0
+        self.exhausted = False
+        self.memo: dict[tuple, tuple[float, int | None, bool]] = {}
+
+        option_key = _weight_option_key if weighted else _count_option_key
+        live = [c for c in problem.candidates if all(problem.residual_capacity(r) > 0 for r in c.resources)]
+        groups: dict[Hashable, list[Cand]] = {}
+        for cand in live:
+            groups.setdefault(cand.group, []).append(cand)
+        ordered_groups = sorted(groups.values(), key=lambda g: (len(g), _sortable(g[0].group)))
+        self.cands: list[Cand] = [c for g in ordered_groups for c in sorted(g, key=option_key)]
+        n = len(self.cands)
+        self.value = [c.weight if weighted else 1 for c in self.cands]
+
+        position = {c.index: k for k, c in enumerate(self.cands)}
+        self.group_mask = [0] * n
+        for k, cand in enumerate(self.cands):
+            self.group_mask[k] = sum(1 << position[o.index] for o in groups[cand.group])
+
+        # Pairwise exclusions (M-CAPACITY): group, XOR key, listed conflicts, residual-1 resources.
+        adj = [self.group_mask[k] & ~(1 << k) for k in range(n)]
+        by_xor: dict[Hashable, int] = {}
+        for k, cand in enumerate(self.cands):
+            if cand.xor_key is not None:
+                by_xor[cand.xor_key] = by_xor.get(cand.xor_key, 0) | (1 << k)
+        for k, cand in enumerate(self.cands):
+            if cand.xor_key is not None:
+                adj[k] |= by_xor[cand.xor_key] & ~(1 << k)
+        for pair in problem.conflicts:
+            if len(pair) != 2:
+                continue
+            i, j = tuple(pair)
+            if i in position and j in position:
+                a, b = position[i], position[j]
+                adj[a] |= 1 << b
+                adj[b] |= 1 << a
+        users: dict[str, int] = {}
+        for k, cand in enumerate(self.cands):
+            for r in set(cand.resources):
+                users[r] = users.get(r, 0) | (1 << k)
+        dynamic: list[tuple[int, int]] = []  # (users mask, residual >= 2): cardinality constraints
+        for r, mask in sorted(users.items()):
+            residual = problem.residual_capacity(r)
+            if residual == 1:
+                for k in _bits(mask):
+                    adj[k] |= mask & ~(1 << k)
+            elif mask.bit_count() > residual:  # otherwise it can never bind
+                dynamic.append((mask, residual))
+        self.adj = adj
+        self.res_users = [mask for mask, _ in dynamic]
+        self.initial_residual = tuple(res for _, res in dynamic)
+        self.res_of = [[ri for ri, m in enumerate(self.res_users) if m >> k & 1] for k in range(n)]
+        self.full = (1 << n) - 1
+
+    # ---- values
+
+    def _better(self, value: float, than: float) -> bool:
+        """Strict improvement (weighted values: by more than the relative tolerance)."""
+        if self.weighted:
+            return value > than + WEIGHT_TOLERANCE * max(1.0, abs(than))
+        return value > than
+
+    # ---- live-set operations
+
+    def _binding(self, live: int, residual: tuple[int, ...]) -> tuple[int, ...]:
+        """Finite resources (residual >= 2) with more live users than residual capacity."""
+        return tuple(ri for ri, m in enumerate(self.res_users) if (live & m).bit_count() > residual[ri])
+
+    def _choose(self, live: int, residual: tuple[int, ...], k: int) -> tuple[int, tuple[int, ...]]:
+        """Live set and residuals after selecting candidate k."""
+        live &= ~(self.adj[k] | self.group_mask[k])
+        if self.res_of[k]:
+            res = list(residual)
+            for ri in self.res_of[k]:
+                res[ri] -= 1
+                if res[ri] <= 0:
+                    live &= ~self.res_users[ri]
+            residual = tuple(res)
+        return live, residual
+
+    def _first_fit(self, live: int, residual: tuple[int, ...]) -> tuple[float, int]:
+        """First fit in depth-first order: the lexicographically first feasible assignment."""
+        value, chosen = 0, 0
+        while live:
+            k = (live & -live).bit_length() - 1
+            value += self.value[k]
+            chosen |= 1 << k
+            live, residual = self._choose(live, residual, k)
+        return value, chosen
+
+    def _heuristic(self, live: int, residual: tuple[int, ...]) -> float:
+        """Value of a good feasible selection (a floor for the search, never reported):
+        repeatedly take the live candidate with the best value / (value of what it excludes),
+        i.e. minimum degree in count mode (GWMIN2 in weighted mode)."""
+        adj, value, group_mask = self.adj, self.value, self.group_mask
+        total = 0
+        while live:
+            best_k, best_score = -1, -1.0
+            rest = live
+            while rest:
+                low = rest & -rest
+                rest ^= low
+                k = low.bit_length() - 1
+                killed = (adj[k] | group_mask[k]) & live
+                if self.weighted:
+                    score = value[k] / sum(value[u] for u in _bits(killed | low))
+                else:
+                    score = 1.0 / (killed | low).bit_count()
+                if score > best_score:
+                    best_k, best_score = k, score
+            total += value[best_k]
+            live, residual = self._choose(live, residual, best_k)
+        return total
+
+    def _just_below(self, value: float) -> float:
+        """A floor that ``value`` beats (so a search above it returns an optimum >= value)."""
+        if self.weighted:
+            return value - 2 * WEIGHT_TOLERANCE * max(1.0, abs(value))
+        return value - 1
+
+    def _upper_bound(self, live: int) -> float:
+        """min(clique cover, group bound) on the live exclusion graph.
+
+        * Clique cover: greedy cliques seeded at the lowest live bit (which absorbs that group);
+          a selection holds at most one activity per clique, worth at most its heaviest member.
+        * Group bound: Σ over groups of the best live value t_g, minus a fractional matching on
+          pairs of groups whose best options exclude each other: such a pair cannot collect
+          t_g + t_h, one of the two settles for its second best s or nothing.  Each group g lends
+          at most t_g − s_g in total (a weighted clique cover with split weights).
+        """
+        adj, value, group_mask = self.adj, self.value, self.group_mask
+        cover, rest = 0, live
+        while rest:
+            low = rest & -rest
+            rest ^= low
+            k = low.bit_length() - 1
+            best = value[k]
+            pool = rest & adj[k]
+            while pool:
+                low = pool & -pool
+                rest ^= low
+                u = low.bit_length() - 1
+                pool &= adj[u]
+                if value[u] > best:
+                    best = value[u]
+            cover += best
+
+        # Options are ordered best first within a group, so the lowest live bit is the top.
+        slack: dict[int, float] = {}
+        top_mask, bound, rest = 0, 0, live
+        while rest:
+            low = rest & -rest
+            k = low.bit_length() - 1
+            g = rest & group_mask[k]
+            rest &= ~g
+            others = g ^ low
+            second = value[(others & -others).bit_length() - 1] if others else 0
+            bound += value[k]
+            if value[k] > second:
+                slack[k] = value[k] - second
+                top_mask |= low
+        if bound <= cover:
+            for u in list(slack):
+                nb = adj[u] & top_mask & ~((1 << (u + 1)) - 1)
+                while nb and slack[u] > 0:
+                    low = nb & -nb
+                    nb ^= low
+                    v = low.bit_length() - 1
+                    lend = min(slack[u], slack[v])
+                    if lend > 0:
+                        slack[u] -= lend
+                        slack[v] -= lend
+                        bound -= lend
+        return min(cover, bound)
+
+    # ---- search
+
+    def solve(
+        self, live: int, residual: tuple[int, ...], floor: float, root: bool = False
+    ) -> tuple[float, int | None, bool]:
+        """See the class docstring.  ``root`` marks a component root (runs the floor heuristic)."""
+        if not live:
+            return 0, 0, True
+        key = (live, tuple((ri, residual[ri]) for ri in self._binding(live, residual)))
+        hit = self.memo.get(key)
+        if hit is not None and (hit[2] or not self._better(hit[0], floor)):
+            return hit
+        if self.exhausted or self.nodes >= self.node_budget:
+            self.exhausted = True
+            value, chosen = self._first_fit(live, residual)
+            return value, chosen, True
+        self.nodes += 1
+        upper = self._upper_bound(live)
+        if not self._better(upper, floor):
+            result = (upper, None, False)
+        else:
+            components = self._components(live, key[1])
+            if len(components) > 1:
+                result = self._solve_components(components, residual, floor)
+            else:
+                result = self._branch(live, residual, floor, upper, root)
+        if not self.exhausted:
+            self.memo[key] = result
+        return result
+
+    def _components(self, live: int, binding: tuple[tuple[int, int], ...]) -> list[int]:
+        """Connected components of ``live`` (exclusions and binding finite resources)."""
+        bound_users = [self.res_users[ri] for ri, _ in binding]
+        comps = []
+        rest = live
+        while rest:
+            low = rest & -rest
+            comp, frontier = low, low
+            while frontier:
+                k = (frontier & -frontier).bit_length() - 1
+                frontier ^= 1 << k
+                reach = self.adj[k]
+                for m in bound_users:
+                    if m >> k & 1:
+                        reach |= m
+                new = reach & live & ~comp
+                comp |= new
+                frontier |= new
+            comps.append(comp)
+            rest &= ~comp
+        return comps
+
+    def _solve_components(self, components: list[int], residual: tuple[int, ...], floor: float):
+        """Independent components: optimum = Σ component optima, first optimum = union of theirs.
+        Component i must beat floor − (values found so far) − (bounds of the others)."""
+        bounds = [self._upper_bound(c) for c in components]
+        rest_bound = sum(bounds)
+        total, chosen = 0, 0
+        for comp, ub in zip(components, bounds):
+            rest_bound -= ub
+            value, mask, exact = self.solve(comp, residual, floor - total - rest_bound, root=True)
+            if not exact:
+                return floor, None, False
+            total += value
+            chosen |= mask
+        return total, chosen, True
+
+    def _branch(self, live: int, residual: tuple[int, ...], floor: float, upper: float, root: bool):
+        """One connected component: branch on its first group (options in order, then skip).
+
+        First fit is a sound incumbent: it is the lexicographically first feasible assignment,
+        so it is kept exactly when nothing strictly better exists.  Before branching, groups
+        that every better selection must use and that have a single live option are taken
+        (:meth:`_forced`).
+        """
+        found, best = self._first_fit(live, residual)
+        if root and live.bit_count() >= HEURISTIC_MIN_CANDIDATES:
+            # A better heuristic value raises the floor; the search then still returns the
+            # first optimal selection, whose value is at least the heuristic's.
+            hint = self._heuristic(live, residual)
+            if self._better(hint, found):
+                floor = max(floor, self._just_below(hint))
+        if not self._better(found, floor):
+            found, best = None, None
+        elif not self._better(upper, found):
+            return found, best, True
+        threshold = floor if found is None else found
+
+        forced = self._forced(live, residual, threshold)
+        if forced is None or forced[2]:
+            if forced is not None:  # solve what is left after the forced choices
+                sub_live, sub_res, gain, mask = forced
+                value, sub_mask, exact = self.solve(sub_live, sub_res, threshold - gain)
+                if exact and self._better(value + gain, threshold):
+                    return value + gain, sub_mask | mask, True
+            return (found, best, True) if found is not None else (floor, None, False)
+
+        first = (live & -live).bit_length() - 1
+        group = live & self.group_mask[first]
+        branches = [(k, *self._choose(live, residual, k)) for k in _bits(group)]
+        branches.append((None, live & ~group, residual))
+        for k, sub_live, sub_res in branches:
+            gain = 0 if k is None else self.value[k]
+            if not self._better(gain + self._upper_bound(sub_live), threshold):
+                continue
+            value, mask, exact = self.solve(sub_live, sub_res, threshold - gain)
+            if exact and self._better(value + gain, threshold):
+                found = threshold = value + gain
+                best = mask if k is None else mask | (1 << k)
+                if not self._better(upper, found):
+                    break
+        if found is None:
+            return floor, None, False
+        return found, best, True
+
+    def _forced(self, live: int, residual: tuple[int, ...], threshold: float):
+        """Propagation for selections that must beat ``threshold``.
+
+        A group is mandatory when the group bound without it does not beat the threshold; a
+        mandatory group with one live option forces that option into every such selection.
+        Returns None if no selection can beat the threshold, else (live, residual, gain, mask)
+        after the forced choices (gain 0 and mask 0 when nothing was forced).
+        """
+        value, group_mask = self.value, self.group_mask
+        gain, mask = 0, 0
+        while True:
+            tops, total, rest = [], 0, live
+            while rest:
+                low = rest & -rest
+                k = low.bit_length() - 1
+                g = rest & group_mask[k]
+                rest &= ~g
+                tops.append((k, g))
+                total += value[k]  # options are ordered best first
+            if not self._better(total, threshold - gain):
+                return None
+            single = [k for k, g in tops if g & (g - 1) == 0 and not self._better(total - value[k], threshold - gain)]
+            if not single:
+                return live, residual, gain, mask
+            for k in single:
+                if not live >> k & 1:  # excluded by another forced choice: re-evaluate
+                    break
+                gain += value[k]
+                mask |= 1 << k
+                live, residual = self._choose(live, residual, k)
+
+    def run(self) -> tuple[float, list[Cand]]:
+        floor = -1.0 if self.weighted else -1
+        value, chosen, _ = self.solve(self.full, self.initial_residual, floor, root=True)
+        return value, [self.cands[k] for k in _bits(chosen)]
+
+
+def _sortable(key: Hashable):
+    """Group keys sort naturally when comparable (e.g. (pid, op)); otherwise by their repr."""
+    if isinstance(key, tuple):
+        return tuple((0, x) if isinstance(x, (int, float)) else (1, str(x)) for x in key)
+    if isinstance(key, (int, float)):
+        return ((0, key),)
+    return ((1, str(key)),)
+
+
+def _solve(problem: CapacityProblem, weighted: bool, node_budget: int) -> CapacityResult:
+    search = _Search(problem, weighted, node_budget)
+    value, chosen = search.run()
+    greedy = _first_fit(problem, _greedy_weight_key if weighted else _greedy_count_key)
+    greedy_value = math.fsum(c.weight for c in greedy) if weighted else len(greedy)
+    exact = not search.exhausted
+    # RES-CAPACITY-TIEBREAK: the original's search is seeded with the greedy set and only
+    # replaces it by strictly better sets.
+    if not search._better(value, greedy_value):
+        chosen = greedy
+    return _result(problem, chosen, exact, search.nodes)
+
+
+def solve_count(problem: CapacityProblem, *, node_budget: int = DEFAULT_NODE_BUDGET) -> CapacityResult:
+    """M-CAPACITY: exact K* = running + max number of mutually compatible candidates."""
+    return _solve(problem, weighted=False, node_budget=node_budget)
+
+
+def solve_weighted(problem: CapacityProblem, *, node_budget: int = DEFAULT_NODE_BUDGET) -> CapacityResult:
+    """M-CAPACITY (weighted diagnostic P*): maximise Σ weight over compatible sets.  ``k_star``
+    reports running + the size of the chosen set."""
+    return _solve(problem, weighted=True, node_budget=node_budget)
