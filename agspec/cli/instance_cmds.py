@@ -1,0 +1,297 @@
+"""CLI: `instance`, `fingerprint`, `export`, `catalogue list|verify|lock`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, NoReturn
+
+import click
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from agspec.catalogue import (
+    GEOMETRY_MATCHED,
+    OFFICIAL_SCENARIOS,
+    CatalogueError,
+    InvalidDocumentError,
+    load_scenario_bundle,
+    lock_entries,
+    lock_path,
+    read_lock,
+    verify_lock,
+    write_lock,
+)
+from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+from agspec.interop.original import ExportError, instance_definition, instance_sha256, original_instance_id
+from agspec.ir.fingerprint import FingerprintError
+from agspec.ir.fingerprint import fingerprint as ir_fingerprint
+from agspec.ir.instance import InstanceError, make_instance
+
+EXPORT_FORMATS = ("assemblygrid-instance-v1",)
+
+
+def _fail(message: str, code: int) -> NoReturn:
+    """common.fail with the message shown literally (paths and diagnostics contain brackets)."""
+    fail(escape(message), code)
+
+
+def _error(message: str) -> None:
+    stderr.print(f"[bold red]error[/]: {escape(message)}", markup=True)
+
+
+def _json_text(data: Any) -> str:
+    return json.dumps(data, indent=2, ensure_ascii=False) + "\n"
+
+
+def _write(path: Path, text: str) -> None:
+    try:
+        path.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        _fail(f"cannot write {path}: {exc.strerror or exc}", EXIT_USAGE)
+
+
+def _bundle(name: str) -> tuple[dict, dict, dict]:
+    try:
+        return load_scenario_bundle(name)
+    except InvalidDocumentError as exc:
+        _fail(str(exc), EXIT_INVALID)
+    except CatalogueError as exc:
+        _fail(str(exc), EXIT_USAGE)
+
+
+def _make(name: str, index: int | None, seed: int | None, execution_seed: int | None) -> dict[str, Any]:
+    if index is not None and seed is not None:
+        _fail("give either --index or --seed, not both", EXIT_USAGE)
+    if index is None and seed is None:
+        index = 0
+    scenario, recipes, profile = _bundle(name)
+    try:
+        return make_instance(scenario, recipes, profile, index=index, generation_seed=seed,
+                             execution_seed=execution_seed)
+    except InstanceError as exc:
+        _fail(str(exc), EXIT_USAGE)
+
+
+INDEX_OPTION = click.option("--index", type=click.IntRange(min=0), default=None,
+                            help="Suite index k (generation seed = base + k). Default: 0.")
+SEED_OPTION = click.option("--seed", type=int, default=None, help="Explicit generation seed (instead of --index).")
+
+
+@click.command("instance")
+@click.argument("scenario")
+@INDEX_OPTION
+@SEED_OPTION
+@click.option("--execution-seed", type=int, default=None, help="Override the execution seed.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the instance IR to FILE instead of stdout.")
+def instance(scenario: str, index: int | None, seed: int | None, execution_seed: int | None,
+             output: Path | None) -> None:
+    """Realize SCENARIO (official name or .ag/.json file) into a self-contained instance IR."""
+    inst = _make(scenario, index, seed, execution_seed)
+    if output is None:
+        emit_json(inst)
+        return
+    _write(output, _json_text(inst))
+    stderr.print(f"wrote {output}: {inst['id']}  {ir_fingerprint(inst)}", markup=False)
+
+
+# --------------------------------------------------------------------------- fingerprint
+
+
+def _load_ir(target: str) -> dict[str, Any]:
+    """IR of a .json file, an .ag file, or an official scenario name (raises on failure)."""
+    path = Path(target)
+    if path.suffix == ".json" or (path.exists() and path.suffix != ".ag"):
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise CatalogueError(f"no such file: {target}") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise CatalogueError(f"cannot read {target}: {exc}") from None
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{target}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+        if not isinstance(data, dict) or "kind" not in data:
+            raise ValueError(f"{target}: not an agspec IR document (a JSON object with a `kind`)")
+        return data
+    if path.suffix == ".ag":
+        if not path.is_file():
+            raise CatalogueError(f"no such file: {target}")
+        try:
+            from agspec.load import load_document
+        except ImportError as exc:  # pragma: no cover
+            raise CatalogueError(f"the DSL loader is unavailable ({exc})") from None
+        doc = load_document(path)
+        errors = [d for d in getattr(doc, "diagnostics", []) or [] if getattr(d, "severity", "error") == "error"]
+        if errors or getattr(doc, "ir", None) is None:
+            source = path.read_text(encoding="utf-8", errors="replace")
+            raise ValueError("\n".join(d.render(source) for d in errors) or f"{target}: cannot load")
+        return doc.ir
+    return load_scenario_bundle(target)[0]
+
+
+@click.command("fingerprint")
+@click.argument("files", nargs=-1, required=True)
+@FORMAT_OPTION
+def fingerprint(files: tuple[str, ...], fmt: str) -> None:
+    """Print the F-FINGERPRINT of IR .json files, .ag files, or official scenario names."""
+    rows, code = [], EXIT_OK
+    for target in files:
+        try:
+            ir = _load_ir(target)
+            fp = ir_fingerprint(ir)
+        except InvalidDocumentError as exc:
+            _error(str(exc))
+            code = max(code, EXIT_INVALID)
+            continue
+        except CatalogueError as exc:
+            _error(str(exc))
+            code = max(code, EXIT_USAGE)
+            continue
+        except (ValueError, FingerprintError) as exc:
+            _error(str(exc))
+            code = max(code, EXIT_INVALID)
+            continue
+        rows.append({"path": target, "kind": ir.get("kind"), "id": ir.get("id"), "fingerprint": fp})
+    if fmt == "json":
+        emit_json(rows)
+    else:
+        for row in rows:
+            stdout.print(f"{row['fingerprint']}  {row['path']}", markup=False)
+    raise SystemExit(code)
+
+
+# --------------------------------------------------------------------------- export
+
+
+def _instance_for_export(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
+    path = Path(target)
+    if path.suffix == ".json" and path.is_file():
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            _fail(f"cannot read {target}: {exc}", EXIT_USAGE)
+        if isinstance(data, dict) and data.get("kind") == "instance":
+            if index is not None or seed is not None:
+                _fail("--index/--seed cannot be used with an instance file", EXIT_USAGE)
+            return data
+    return _make(target, index, seed, None)
+
+
+@click.command("export")
+@click.argument("scenario")
+@INDEX_OPTION
+@SEED_OPTION
+@click.option("--to", "to_format", type=click.Choice(EXPORT_FORMATS), default=EXPORT_FORMATS[0],
+              show_default=True, help="Target format.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the definition to FILE (default: stdout).")
+def export(scenario: str, index: int | None, seed: int | None, to_format: str, output: Path | None) -> None:
+    """Export SCENARIO at an index (or an instance .json) as the original's instance definition."""
+    inst = _instance_for_export(scenario, index, seed)
+    try:
+        defn = instance_definition(inst)
+    except ExportError as exc:
+        _fail(str(exc), EXIT_INVALID)
+    except (KeyError, TypeError) as exc:
+        _fail(f"{scenario}: not a complete instance IR ({exc})", EXIT_INVALID)
+    digest, oid = instance_sha256(defn), original_instance_id(inst)
+    text = json.dumps(defn, indent=2, sort_keys=True, ensure_ascii=False) + "\n"
+    if output is None:
+        click.echo(text, nl=False)
+        stderr.print(f"{digest}  {oid}", markup=False)
+    else:
+        _write(output, text)
+        stdout.print(f"{digest}  {oid}", markup=False)
+
+
+# --------------------------------------------------------------------------- catalogue
+
+
+@click.group("catalogue")
+def catalogue() -> None:
+    """The official scenarios and their lock (catalogue/lock.json)."""
+
+
+@catalogue.command("list")
+@FORMAT_OPTION
+def catalogue_list(fmt: str) -> None:
+    """List the official and geometry-matched scenarios."""
+    rows = []
+    for name in (*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED):
+        scenario, _, _ = _bundle(name)
+        grid, release = scenario["grid"], scenario["release"]
+        rows.append({
+            "name": name, "family": scenario.get("family"), "level": scenario.get("level"),
+            "official": bool((scenario.get("suite") or {}).get("official")),
+            "grid": f"{grid['rows']}x{grid['cols']}", "recipes": list(scenario["recipes"]),
+            "variant": (scenario.get("profile") or {}).get("variant"),
+            "wip_cap": release["wip_cap"], "interval": release["interval"],
+            "fingerprint": ir_fingerprint(scenario),
+        })
+    if fmt == "json":
+        emit_json(rows)
+        return
+    table = Table(title="AssemblyGrid v1 catalogue", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=(0, 1), collapse_padding=True,
+                  caption="* geometry-matched control (not official): abstract-v1 variant conflict-<level>")
+    for col in ("family", "level", "grid", "recipe", "WIP", "interval", "fingerprint"):
+        table.add_column(col, no_wrap=True)
+    for r in rows:
+        cells = (r["family"], r["level"] + ("" if r["official"] else "*"), r["grid"], ", ".join(r["recipes"]),
+                 str(r["wip_cap"]), str(r["interval"]), r["fingerprint"][:15])
+        table.add_row(*(escape(str(c)) for c in cells))
+    stdout.print(table)
+
+
+def _current_lock() -> dict[str, Any]:
+    try:
+        return lock_entries(load_scenario_bundle)
+    except InvalidDocumentError as exc:
+        _fail(str(exc), EXIT_INVALID)
+    except CatalogueError as exc:
+        _fail(str(exc), EXIT_USAGE)
+    except InstanceError as exc:
+        _fail(f"cannot realize the catalogue: {exc}", EXIT_INVALID)
+
+
+@catalogue.command("verify")
+@click.option("--update", is_flag=True, help="Rewrite catalogue/lock.json from the current catalogue.")
+@click.option("--lock", "lock_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Lock file to check (default: the catalogue's lock.json).")
+def catalogue_verify(update: bool, lock_file: Path | None) -> None:
+    """Recompute scenario and realization fingerprints and compare them with the lock."""
+    path = lock_file or lock_path()
+    current = _current_lock()
+    if update:
+        try:
+            write_lock(current, path)
+        except OSError as exc:
+            _fail(f"cannot write {path}: {exc.strerror or exc}", EXIT_USAGE)
+        n = sum(len(s["instances"]) for s in current["scenarios"].values())
+        stdout.print(f"wrote {path}: {len(current['scenarios'])} scenarios, {n} realizations", markup=False)
+        return
+    try:
+        locked = read_lock(path)
+    except CatalogueError as exc:
+        _fail(str(exc), EXIT_USAGE)
+    drift = verify_lock(current, locked)
+    if drift:
+        stderr.print(f"[bold red]catalogue drift[/]: {len(drift)} difference(s) from {escape(str(path))}:")
+        for line in drift:
+            stderr.print(f"  - {line}", markup=False)
+        stderr.print("if the change is intended, run `agspec catalogue verify --update` and review the diff",
+                     markup=False)
+        raise SystemExit(EXIT_INVALID)
+    n = sum(len(s["instances"]) for s in current["scenarios"].values())
+    stdout.print(f"catalogue matches {path}: {len(current['scenarios'])} scenarios, {n} realizations",
+                 markup=False)
+
+
+@catalogue.command("lock")
+@click.option("--lock", "lock_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Lock file to write (default: the catalogue's lock.json).")
+@click.pass_context
+def catalogue_lock(ctx: click.Context, lock_file: Path | None) -> None:
+    """Rewrite the lock (same as `catalogue verify --update`)."""
+    ctx.invoke(catalogue_verify, update=True, lock_file=lock_file)
