@@ -17,8 +17,8 @@ configurations"), see :data:`PROFILE_DEFAULTS` and :data:`SCENARIO_DEFAULTS`.  F
 a default (e.g. an operation's ``duration``, a scenario's ``recipes``) stay absent and the
 schema check reports them (AG201).
 
-Build diagnostics: AG206 duplicate field or key, AG301 duplicate operation id, AG302
-duplicate role name in an operation, AG303 duplicate XOR group.  The duplicate is dropped
+Build diagnostics: AG206 duplicate field or key, AG301 duplicate operation id, AG343
+duplicate role name in an operation, AG325 duplicate XOR group.  The duplicate is dropped
 (the first one wins), so later checks still run on a sensible IR.  Build never raises on
 user input.
 """
@@ -268,7 +268,7 @@ class _Builder:
             name = role.name.value
             if name in first:
                 prev = first[name]
-                self.error("AG302", f"duplicate role `{name}` in one operation", role.name.span,
+                self.error("AG343", f"duplicate role `{name}` in one operation", role.name.span,
                            hint="role names of an operation must differ",
                            notes=(f"first listed at {prev[0]}:{prev[1]}",))
                 continue
@@ -290,7 +290,7 @@ class _Builder:
             name = f.name.value
             if name in first:
                 prev = first[name]
-                self.error("AG303", f"duplicate XOR group `{name}`", f.name.span,
+                self.error("AG325", f"duplicate XOR group `{name}`", f.name.span,
                            hint="declare each XOR group once",
                            notes=(f"first declared at {prev.name.span[0]}:{prev.name.span[1]}",))
                 continue
