@@ -442,7 +442,19 @@ def semantic_validator() -> SemanticValidator | None:
     except ImportError:
         return None
     func = getattr(module, "validate_document", None)
-    return func if callable(func) else None
+    if not callable(func):
+        return None
+    try:  # scenarios also get the realizability checks, which need the geometry model (S-FEASIBILITY)
+        full = importlib.import_module("agspec.interp.realizability").validate_scenario_full
+    except (ImportError, AttributeError):
+        return func
+
+    def validate(ir, resolver):
+        if isinstance(ir, dict) and ir.get("kind") == "scenario":
+            return full(ir, resolver)
+        return func(ir, resolver)
+
+    return validate
 
 
 def _dsl_hint(doc: Document, issue: Issue) -> Issue:

@@ -11,6 +11,8 @@ from typing import Any
 
 import networkx as nx
 
+from agspec.ir import topology
+
 Cell = tuple[int, int]
 
 # DIRECTIONS index d -> (d_row, d_col) (O-ACTION-ENCODING)
@@ -163,7 +165,7 @@ class Model:
             support_timeout=int(sc["coordination"]["support_timeout"]),
             switch_lock=int(sc["coordination"]["switch_lock"]),
             support_visible=bool(sc["coordination"].get("support_visible", True)),
-            k_topo=_k_topo(rows, cols, grid.get("topology", "moore"), int(grid.get("radius", 1))),
+            k_topo=topology.grid_k_topo(rows, cols, grid.get("topology", "moore"), int(grid.get("radius", 1))),
             pick_duration=int(prof["durations"]["pick"]),
             handoff_duration=int(prof["durations"]["handoff"]),
             deliver_duration=int(prof["durations"]["deliver"]),
@@ -185,31 +187,17 @@ class Model:
             out[c] = tuple(d for d in self.cells if d != c and self.adjacent(c, d))
         return out
 
+    @cached_property
+    def _adjacency(self) -> frozenset[tuple[Cell, Cell]]:
+        grid = self.instance["scenario"]["grid"]
+        radius = int(grid.get("radius", 1))
+        return frozenset(
+            (a, b) for a in self.cells for b in self.cells if topology.adjacent(a, b, self.topology, radius)
+        )
+
     def adjacent(self, a: Cell, b: Cell) -> bool:
-        di, dj = abs(a[0] - b[0]), abs(a[1] - b[1])
-        if a == b:
-            return False
-        if self.topology == "moore":
-            return max(di, dj) <= 1
-        if self.topology == "von_neumann":
-            return di + dj <= 1
-        return di + dj <= 1 and (di == 0 if self.rows == 1 else dj == 0 if self.cols == 1 else True)
+        """G_manip adjacency (D-TOPOLOGY), from agspec.ir.topology."""
+        return (a, b) in self._adjacency
 
     def resource_cap(self, name: str) -> int:
         return self.resource_capacity.get(name, 1)
-
-
-def _k_topo(rows: int, cols: int, topology: str, radius: int) -> int:
-    """D-KTOPO: clique number of G_manip (networkx), never a free parameter."""
-    g = nx.Graph()
-    cells = [(i, j) for i in range(rows) for j in range(cols)]
-    g.add_nodes_from(cells)
-    for a in cells:
-        for b in cells:
-            if a < b:
-                di, dj = abs(a[0] - b[0]), abs(a[1] - b[1])
-                if topology == "moore" and max(di, dj) <= radius:
-                    g.add_edge(a, b)
-                elif topology != "moore" and di + dj <= radius:
-                    g.add_edge(a, b)
-    return max((len(c) for c in nx.find_cliques(g)), default=1)
