@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
+from agspec.diagnostics import Issue
 from conftest_ir import OFFICIAL_TABLE, abstract_v1, official_recipes, official_scenarios
 
 IR = "agspec-ir/1"
@@ -71,3 +72,27 @@ class DictResolver:
 
 def official_resolver(*extra: dict[str, Any]) -> DictResolver:
     return DictResolver(*official_recipes().values(), abstract_v1(), *extra)
+
+
+def found(issues: list[Issue]) -> set[tuple[str, str, str]]:
+    return {(i.code, i.pointer, i.severity) for i in issues}
+
+
+def xor_recipe() -> dict:
+    """A valid recipe with an XOR group: align, then glue OR weld, then inspect after the group."""
+    def op(oid, inputs, output, after, kind="assemble"):
+        n = len(inputs)
+        return {"id": oid, "type": kind, "inputs": inputs, "outputs": [output], "after": after,
+                "arity": [n, n], "roles": [{"name": f"holder_{t}", "binds": t} for t in inputs],
+                "resources": [], "duration": 2, "weight": 1.0}
+    return {
+        "ir_version": "agspec-ir/1", "kind": "recipe", "id": "glue_or_weld", "value": 1.0,
+        "raw": ["A", "B"], "resources": {},
+        "operations": [
+            op("align", ["A", "B"], "AB", []),  # 0
+            op("glue", ["AB"], "G", ["align"]),  # 1
+            op("inspect", ["G"], "FINAL", ["route"], "inspect"),  # 2
+            op("weld", ["AB"], "G", ["align"]),  # 3
+        ],
+        "xor": [{"id": "route", "alternatives": ["glue", "weld"]}],
+    }

@@ -8,12 +8,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 import ir_fixtures as F
+from ir_fixtures import found, xor_recipe
 from agspec.interp import geometry
 from agspec.interp import realizability as RZ
 from agspec.interp.realizability import check_realizability, validate_scenario_full
 from agspec.ir.validate import validate_recipe
 from strategies_ir import valid_recipes
-from test_validate import found, xor_recipe
 
 E, W = "error", "warning"
 

@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import ir_fixtures as F
+from ir_fixtures import found, xor_recipe
 from agspec.diagnostics import Issue
 from agspec.ir.instance import make_instance
 from agspec.ir.validate import (
@@ -34,33 +35,9 @@ from strategies_ir import valid_recipes
 E, W = "error", "warning"
 
 
-def found(issues: list[Issue]) -> set[tuple[str, str, str]]:
-    return {(i.code, i.pointer, i.severity) for i in issues}
-
-
 # ---------------------------------------------------------------------------------------------
 # Recipes (RC-*)
 # ---------------------------------------------------------------------------------------------
-
-
-def xor_recipe() -> dict:
-    """A valid recipe with an XOR group: align, then glue OR weld, then inspect after the group."""
-    def op(oid, inputs, output, after, kind="assemble"):
-        n = len(inputs)
-        return {"id": oid, "type": kind, "inputs": inputs, "outputs": [output], "after": after,
-                "arity": [n, n], "roles": [{"name": f"holder_{t}", "binds": t} for t in inputs],
-                "resources": [], "duration": 2, "weight": 1.0}
-    return {
-        "ir_version": "agspec-ir/1", "kind": "recipe", "id": "glue_or_weld", "value": 1.0,
-        "raw": ["A", "B"], "resources": {},
-        "operations": [
-            op("align", ["A", "B"], "AB", []),  # 0
-            op("glue", ["AB"], "G", ["align"]),  # 1
-            op("inspect", ["G"], "FINAL", ["route"], "inspect"),  # 2
-            op("weld", ["AB"], "G", ["align"]),  # 3
-        ],
-        "xor": [{"id": "route", "alternatives": ["glue", "weld"]}],
-    }
 
 
 def _r(rid):

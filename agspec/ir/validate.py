@@ -1083,14 +1083,18 @@ def _check_profile_binding(inst: Mapping) -> list[Issue]:
         out.append(_err("AG504", f"the embedded profile is {profile.get('id')!r} but the scenario uses "
                         f"{ref.get('id')!r}", _ptr("profile", "id"), "embed the scenario's profile"))
     if profile.get("variant") != ref.get("variant"):
-        out.append(_err("AG504", f"the embedded profile is resolved for variant {profile.get('variant')!r} "
-                        f"but the scenario chooses {ref.get('variant')!r}", _ptr("profile", "variant"),
+        out.append(_err("AG504", f"the embedded profile is resolved for {_variant(profile.get('variant'))} "
+                        f"but the scenario chooses {_variant(ref.get('variant'))}", _ptr("profile", "variant"),
                         "resolve the profile with the scenario's variant"))
     if "variants" in profile:
         out.append(_err("AG504", "the embedded profile still lists its variants; an instance embeds the "
                         "resolved profile", _ptr("profile", "variants"),
                         "apply the chosen variant and drop `variants`"))
     return out
+
+
+def _variant(name: object) -> str:
+    return "no variant" if name is None else f"variant `{name}`"
 
 
 @dataclass(frozen=True)
