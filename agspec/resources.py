@@ -1,4 +1,4 @@
-"""Locate the data shipped with agspec (schemas, catalogue, spec).
+"""Locate the data shipped with agspec (schemas, catalogue, spec, conformance suite).
 
 An installed wheel carries them under ``agspec/_data``; an editable install or a source
 checkout finds them at the repository top level.
@@ -28,3 +28,8 @@ def catalogue_dir() -> Path:
 
 def spec_dir() -> Path:
     return _find("spec")
+
+
+def conformance_dir() -> Path:
+    """The conformance suite (cases, instances, traces), spec chapter 09 / issue 4."""
+    return _find("conformance")

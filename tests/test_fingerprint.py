@@ -47,7 +47,7 @@ def _non_defining(ir: dict[str, Any], path: tuple) -> bool:
         return True
     if "doc" in path:
         return True
-    return ir.get("kind") == "instance" and path[:2] == ("seeds", "execution")
+    return ir.get("kind") == "instance" and path[:2] in (("seeds", "execution"), ("seeds", "index"))
 
 
 def _mutate(value: Any) -> Any:
@@ -138,6 +138,22 @@ def test_instance_ignores_execution_seed_but_not_generation_seed():
     c = copy.deepcopy(a)
     c["seeds"]["generation"] += 1
     assert fingerprint(c) != fingerprint(a)
+
+
+def test_index_is_a_label_but_the_generation_seed_is_defining():
+    """F-FINGERPRINT: index k and its generation seed give the same problem, hence one fingerprint."""
+    sc, rc, pr = bundle("coalition-medium")
+    by_index = make_instance(sc, rc, pr, index=3)
+    by_seed = make_instance(sc, rc, pr, generation_seed=by_index["seeds"]["generation"],
+                            execution_seed=by_index["seeds"]["execution"])
+    assert by_index["seeds"]["index"] == 3 and by_seed["seeds"]["index"] is None
+    assert fingerprint(by_index) == fingerprint(by_seed)
+
+
+def test_resource_named_doc_stays_defining():
+    base = {"kind": "scenario", "resources": {"doc": 1}}
+    assert fingerprint(base) != fingerprint({"kind": "scenario", "resources": {"doc": 2}})
+    assert fingerprint({"kind": "scenario", "doc": "a"}) == fingerprint({"kind": "scenario", "doc": "b"})
 
 
 def test_execution_key_is_defining_outside_instances():

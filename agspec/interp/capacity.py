@@ -44,8 +44,8 @@ from dataclasses import dataclass, field
 from typing import Callable, Hashable, Iterable, Mapping
 
 DEFAULT_NODE_BUDGET = 2_000_000
-WEIGHT_TOLERANCE = 1e-9
-HEURISTIC_MIN_CANDIDATES = 12  # live candidates from which a node also runs the floor heuristic  # weighted values within this (relative) tolerance count as equal
+WEIGHT_TOLERANCE = 1e-9  # weighted values within this (relative) tolerance count as equal
+HEURISTIC_MIN_CANDIDATES = 12  # component roots this large also run the floor heuristic
 
 
 @dataclass(frozen=True)
@@ -260,6 +260,14 @@ class _Search:
         self.initial_residual = tuple(res for _, res in dynamic)
         self.res_of = [[ri for ri, m in enumerate(self.res_users) if m >> k & 1] for k in range(n)]
         self.full = (1 << n) - 1
+        # Group ids and, per candidate, the other groups it excludes options of (for _forced).
+        self.group_id = [0] * n
+        for gid, g in enumerate(ordered_groups):
+            for cand in g:
+                self.group_id[position[cand.index]] = gid
+        self.touches = [
+            sorted({self.group_id[u] for u in _bits(adj[k] & ~self.group_mask[k])}) for k in range(n)
+        ]
 
     # ---- values
 
@@ -298,9 +306,15 @@ class _Search:
         return value, chosen
 
     def _heuristic(self, live: int, residual: tuple[int, ...]) -> float:
-        """Value of a good feasible selection (a floor for the search, never reported):
-        repeatedly take the live candidate with the best value / (value of what it excludes),
-        i.e. minimum degree in count mode (GWMIN2 in weighted mode)."""
+        """Value of a good feasible selection (a floor for the search, never reported): the
+        better of two greedy rules that repeatedly take the live candidate with the fewest
+        exclusions (minimum degree), resp. the best value per excluded value (GWMIN2)."""
+        best = self._greedy_by(live, residual, by_weight=False)
+        if self.weighted:
+            best = max(best, self._greedy_by(live, residual, by_weight=True))
+        return best
+
+    def _greedy_by(self, live: int, residual: tuple[int, ...], by_weight: bool) -> float:
         adj, value, group_mask = self.adj, self.value, self.group_mask
         total = 0
         while live:
@@ -311,7 +325,7 @@ class _Search:
                 rest ^= low
                 k = low.bit_length() - 1
                 killed = (adj[k] | group_mask[k]) & live
-                if self.weighted:
+                if by_weight:
                     score = value[k] / sum(value[u] for u in _bits(killed | low))
                 else:
                     score = 1.0 / (killed | low).bit_count()
@@ -450,17 +464,11 @@ class _Search:
         return total, chosen, True
 
     def _branch(self, live: int, residual: tuple[int, ...], floor: float, upper: float, root: bool):
-        """One connected component: branch on its first group (options in order, then skip).
-
-        First fit is a sound incumbent: it is the lexicographically first feasible assignment,
-        so it is kept exactly when nothing strictly better exists.  Before branching, groups
-        that every better selection must use and that have a single live option are taken
-        (:meth:`_forced`).
-        """
+        """One connected component: branch on its most constrained group (fewest live options;
+        options best first, then skip), after propagation (:meth:`_forced`)."""
         found, best = self._first_fit(live, residual)
         if root and live.bit_count() >= HEURISTIC_MIN_CANDIDATES:
-            # A better heuristic value raises the floor; the search then still returns the
-            # first optimal selection, whose value is at least the heuristic's.
+            # A better heuristic value raises the floor; the optimum is at least the heuristic's.
             hint = self._heuristic(live, residual)
             if self._better(hint, found):
                 floor = max(floor, self._just_below(hint))
@@ -471,16 +479,15 @@ class _Search:
         threshold = floor if found is None else found
 
         forced = self._forced(live, residual, threshold)
-        if forced is None or forced[2]:
-            if forced is not None:  # solve what is left after the forced choices
-                sub_live, sub_res, gain, mask = forced
+        if forced is None or forced[4]:
+            if forced is not None:  # solve what is left after removals and forced choices
+                sub_live, sub_res, gain, mask, _ = forced
                 value, sub_mask, exact = self.solve(sub_live, sub_res, threshold - gain)
                 if exact and self._better(value + gain, threshold):
                     return value + gain, sub_mask | mask, True
             return (found, best, True) if found is not None else (floor, None, False)
 
-        first = (live & -live).bit_length() - 1
-        group = live & self.group_mask[first]
+        group = self._most_constrained_group(live)
         branches = [(k, *self._choose(live, residual, k)) for k in _bits(group)]
         branches.append((None, live & ~group, residual))
         for k, sub_live, sub_res in branches:
@@ -497,40 +504,119 @@ class _Search:
             return floor, None, False
         return found, best, True
 
-    def _forced(self, live: int, residual: tuple[int, ...], threshold: float):
-        """Propagation for selections that must beat ``threshold``.
+    def _most_constrained_group(self, live: int) -> int:
+        """The live option mask of the group with the fewest live options (first on ties)."""
+        best, best_size, rest = 0, 1 << 30, live
+        while rest:
+            low = rest & -rest
+            g = rest & self.group_mask[low.bit_length() - 1]
+            rest &= ~g
+            size = g.bit_count()
+            if size < best_size:
+                best, best_size = g, size
+                if size == 1:
+                    break
+        return best
 
-        A group is mandatory when the group bound without it does not beat the threshold; a
-        mandatory group with one live option forces that option into every such selection.
-        Returns None if no selection can beat the threshold, else (live, residual, gain, mask)
-        after the forced choices (gain 0 and mask 0 when nothing was forced).
+    def _forced(self, live: int, residual: tuple[int, ...], threshold: float):
+        """Propagation for selections that must beat ``threshold`` (sound for the first optimum:
+        it only removes options that no such selection uses).
+
+        A group is *mandatory* when the group bound without it does not beat the threshold.
+        * An option that excludes every live option of some mandatory group is removed.
+        * A mandatory group with a single live option forces that option.
+        Returns None if no selection can beat the threshold, else
+        (live, residual, gain, mask, changed) after removals and forced choices.
         """
-        value, group_mask = self.value, self.group_mask
-        gain, mask = 0, 0
+        value, group_mask, group_id, adj = self.value, self.group_mask, self.group_id, self.adj
+        gain, mask, changed = 0, 0, False
         while True:
-            tops, total, rest = [], 0, live
+            options: dict[int, int] = {}
+            total, rest = 0, live
             while rest:
                 low = rest & -rest
                 k = low.bit_length() - 1
                 g = rest & group_mask[k]
                 rest &= ~g
-                tops.append((k, g))
+                options[group_id[k]] = g
                 total += value[k]  # options are ordered best first
-            if not self._better(total, threshold - gain):
+            need = threshold - gain
+            if not self._better(total, need):
                 return None
-            single = [k for k, g in tops if g & (g - 1) == 0 and not self._better(total - value[k], threshold - gain)]
+            mandatory = {
+                gid: g for gid, g in options.items()
+                if not self._better(total - value[(g & -g).bit_length() - 1], need)
+            }
+            if not mandatory:
+                return live, residual, gain, mask, changed
+            removed = 0
+            for k in _bits(live):
+                for gid in self.touches[k]:
+                    g = mandatory.get(gid)
+                    if g is not None and not g & ~adj[k]:
+                        removed |= 1 << k
+                        break
+            if removed:
+                live &= ~removed
+                changed = True
+                continue
+            single = [(g & -g).bit_length() - 1 for g in mandatory.values() if not g & (g - 1)]
             if not single:
-                return live, residual, gain, mask
+                return live, residual, gain, mask, changed
             for k in single:
                 if not live >> k & 1:  # excluded by another forced choice: re-evaluate
                     break
                 gain += value[k]
                 mask |= 1 << k
+                changed = True
                 live, residual = self._choose(live, residual, k)
 
+    def _achieves(self, live: int, residual: tuple[int, ...], target: float) -> bool:
+        """Does some selection on ``live`` reach ``target`` (within the weight tolerance)?"""
+        if not self._better(target, 0):
+            return True
+        if self._better(target, self._upper_bound(live)):
+            return False
+        if not self._better(target, self._heuristic(live, residual)):
+            return True
+        value, _, exact = self.solve(live, residual, self._just_below(target))
+        return exact and not self._better(target, value)
+
+    def first_optimum(self, live: int, residual: tuple[int, ...], target: float) -> int:
+        """RES-CAPACITY-TIEBREAK: the first selection in depth-first order (groups in order,
+        options in order, skip last) whose value reaches ``target`` = the optimum of ``live``.
+
+        Descends the canonical order, keeping at each group the first option (or the skip)
+        that still admits a completion reaching the target.  First fit is the first feasible
+        assignment, so it ends the descent as soon as it reaches the target.
+        """
+        chosen = 0
+        while live:
+            value, mask = self._first_fit(live, residual)
+            if not self._better(target, value):
+                return chosen | mask
+            first = (live & -live).bit_length() - 1
+            group = live & self.group_mask[first]
+            for k in _bits(group):
+                sub_live, sub_res = self._choose(live, residual, k)
+                if self._achieves(sub_live, sub_res, target - self.value[k]):
+                    chosen |= 1 << k
+                    live, residual, target = sub_live, sub_res, target - self.value[k]
+                    break
+            else:
+                live &= ~group
+        return chosen
+
     def run(self) -> tuple[float, list[Cand]]:
+        """Optimum value, then the first optimal selection in the canonical order."""
         floor = -1.0 if self.weighted else -1
-        value, chosen, _ = self.solve(self.full, self.initial_residual, floor, root=True)
+        value, chosen, exact = self.solve(self.full, self.initial_residual, floor, root=True)
+        if not exact or chosen is None:  # only after an exhausted node budget
+            value, chosen = self._first_fit(self.full, self.initial_residual)
+        if not self.exhausted:
+            first = self.first_optimum(self.full, self.initial_residual, value)
+            if not self.exhausted:
+                chosen = first
         return value, [self.cands[k] for k in _bits(chosen)]
 
 

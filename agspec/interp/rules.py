@@ -454,7 +454,7 @@ def complete_handoff(state: State, act: Activity, events: Events) -> None:
     state.item_holder[act.item] = act.receiver
     bump(state, "handoff_count")
     events.append({"type": "handoff_completed", "activity": act.aid, "item": f"{act.item[0]}:{act.item[1]}",
-                   "receiver": cell_id(act.receiver)})
+                   "sender": cell_id(act.sender), "receiver": cell_id(act.receiver)})  # F-TRACE-EVENTS
 
 
 def complete_delivery(state: State, act: Activity, events: Events) -> None:

@@ -5,8 +5,10 @@ JSON Canonicalization Scheme (library ``rfc8785``) and ``defining(ir)`` is the I
 non-defining keys:
 
 * the top-level ``"id"`` and ``"meta"`` (names and provenance do not change the problem),
-* the key ``"doc"`` at any depth (free text),
-* ``"seeds.execution"`` in instances (the execution stream is inert in v1; spec F-FINGERPRINT).
+* the key ``"doc"`` with a string value at any depth (free text; a resource or token that happens
+  to be named ``doc`` maps to a number, not a string, and stays defining),
+* ``"seeds.execution"`` in instances (the execution stream is inert in v1) and ``"seeds.index"``
+  (a label: the same realization made from index k or from its generation seed is one problem).
 
 Because JCS canonicalises numbers, ``1`` and ``1.0`` have the same fingerprint, and key order
 and whitespace of the source never matter.
@@ -24,6 +26,7 @@ FINGERPRINT_PREFIX = "sha256:"
 # F-FINGERPRINT: keys that name or describe a document without defining it.
 TOP_LEVEL_NON_DEFINING = ("id", "meta")
 DOC_KEY = "doc"
+NON_DEFINING_SEEDS = ("execution", "index")
 
 
 class FingerprintError(ValueError):
@@ -33,7 +36,7 @@ class FingerprintError(ValueError):
 def _strip_doc(value: Any) -> Any:
     """Copy ``value`` without any ``"doc"`` key at any depth (tuples become lists)."""
     if isinstance(value, Mapping):
-        return {k: _strip_doc(v) for k, v in value.items() if k != DOC_KEY}
+        return {k: _strip_doc(v) for k, v in value.items() if not (k == DOC_KEY and isinstance(v, str))}
     if isinstance(value, (list, tuple)):
         return [_strip_doc(v) for v in value]
     return value
@@ -43,9 +46,9 @@ def defining_view(ir: Mapping[str, Any]) -> dict[str, Any]:
     """The part of ``ir`` that its fingerprint covers (F-FINGERPRINT)."""
     if not isinstance(ir, Mapping):
         raise FingerprintError(f"an IR document must be a JSON object, not {type(ir).__name__}")
-    view = {k: _strip_doc(v) for k, v in ir.items() if k not in TOP_LEVEL_NON_DEFINING and k != DOC_KEY}
+    view = _strip_doc({k: v for k, v in ir.items() if k not in TOP_LEVEL_NON_DEFINING})
     if view.get("kind") == "instance" and isinstance(view.get("seeds"), dict):
-        view["seeds"] = {k: v for k, v in view["seeds"].items() if k != "execution"}
+        view["seeds"] = {k: v for k, v in view["seeds"].items() if k not in NON_DEFINING_SEEDS}
     return view
 
 
