@@ -19,6 +19,19 @@ end of the execution.  Loading resolves everything an implementation needs:
 Malformed files raise :class:`SuiteError` with ``file:line`` locations (never a traceback).
 ``lint_suite`` is the suite's self-check; ``coverage`` measures it against the ``### R-…`` and
 ``### INV-…`` headings of the spec (``agspec.spec_index``).
+
+Running a case (what a harness does; ``reference_run`` / ``check_reference`` do it in-process):
+
+1. ``reset(case.execution_seed)`` on ``case.instance``;
+2. for ``t`` in ``range(case.ticks)``: step with ``case.actions[t]`` (robots not listed idle) or, for
+   a ``{"controller": …}`` driver, with the controller's actions; then
+   ``check_expectations(case, t, state, events, observations=…, done=…)``, where ``state`` is the
+   canonical global state after the step (s_{t+1}), ``events`` the events of the step, and
+   ``observations`` the per-robot observations after the step (pass None without that capability:
+   observation assertions are then not evaluated, see ``Case.needs_observations``).
+
+Expectation dicts carry the loader key ``_index`` (position in the file, or ``"trace"`` for the
+per-tick expectations generated from a reference trace); it is metadata, not an assertion.
 """
 
 from __future__ import annotations
@@ -103,6 +116,7 @@ class Case:
     instance_ref: Any = field(default=None, repr=False)  # as written: {"scenario","index"}, a path, or "inline"
     lines: dict[str, int] = field(default_factory=dict, repr=False)  # "script/3", "expectations/0" -> line
     notes: str = field(default="", repr=False)
+    root: Path | None = field(default=None, repr=False)  # the suite root instance/trace paths are relative to
 
     def __hash__(self) -> int:
         return hash(self.id)
@@ -415,11 +429,22 @@ def _schema_problems(doc: Any, lines: Mapping[str, int], file: str) -> list[Loca
     out = []
     for errs in groups.values():
         err = best_match(errs)
-        while err.context:  # descend into oneOf/anyOf to the most specific message
-            err = best_match(err.context)
+        message = err.message
+        while err.context:  # descend into oneOf/anyOf while that reaches deeper into the document
+            sub = best_match(err.context)
+            if len(sub.absolute_path) <= len(err.absolute_path):
+                desc = err.schema.get("description") if isinstance(err.schema, Mapping) else None
+                message = f"{_show(err.instance)} matches none of the allowed forms" + (f" ({desc})" if desc else "")
+                break
+            err, message = sub, sub.message
+        if err.validator == "pattern" and isinstance(err.schema, Mapping) and err.schema.get("description"):
+            message = f"{_show(err.instance)} is not {err.schema['description']}"
         pointer = "".join(f"/{_escape(str(p))}" for p in err.absolute_path)
+        holder = resolve_pointer(doc, pointer)
+        if isinstance(holder, Mapping) and isinstance(err.instance, str) and err.instance in holder:
+            pointer += f"/{_escape(err.instance)}"  # a bad key (propertyNames): point at the key itself
         field = pointer or "(top level)"
-        out.append(Located(file, _line_for(lines, pointer), f"case schema: {field}: {err.message}"))
+        out.append(Located(file, _line_for(lines, pointer), f"case schema: {field}: {message}"))
     return out
 
 
@@ -618,7 +643,7 @@ def trace_records(case: Case, root: Path | str | None = None) -> tuple[dict[str,
     """(header, tick records) of a trace-driven case."""
     if not case.driver or "trace" not in case.driver:
         raise ValueError(f"case {case.id} is not trace-driven")
-    root = Path(root) if root is not None else case.source.resolve().parent.parent
+    root = Path(root) if root is not None else (case.root or conformance_dir())
     path = (root / case.driver["trace"]).resolve()
     header, ticks, _ = _read_trace(str(path), path.stat().st_mtime)
     return header, ticks
@@ -727,6 +752,7 @@ def _build_case(entry: dict[str, Any], lines: dict[str, int], path: Path, file: 
         instance_ref=ref if not (isinstance(ref, Mapping) and "kind" in ref) else "inline",
         lines=lines_out,
         notes=entry.get("notes", ""),
+        root=root,
     )
 
 

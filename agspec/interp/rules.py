@@ -60,7 +60,9 @@ def blocking_cause(state: State, model: Model, members, resources, plan, target)
             return "resource"
         if not geo and geometric_conflict(model, plan, target, members, act.plan, act.target, act.members):
             geo = True
-    if exhausted(state, model, [r for r in resources if model.resource_cap(r) > 1]):
+    # capacity-1 resources were handled by the sharing test; others (including capacity 0, which
+    # makes a resource unusable: S-RESOURCES) block once all their units are in use
+    if exhausted(state, model, [r for r in resources if model.resource_cap(r) != 1]):
         return "resource"
     return "geometry" if geo else None
 
