@@ -2,13 +2,13 @@
 
 Two families of random states, sized like (and beyond) the official AssemblyGrid v1 suite:
 
-* ``grid``: robots on an M x N grid; every (product, op) group has an anchor robot and its
-  candidates are coalitions inside 2 x 2 blocks around the anchor; two candidates conflict when
+* ``grid``: robots on an M x N grid; every (product, op) group has its own anchor (holder)
+  robot and its candidates are coalitions inside 2 x 2 blocks containing the anchor; two candidates conflict when
   they share a robot, or (geometry) with some probability when their anchors are close; a few
   finite resources with capacities 1-3 and external use; XOR keys shared by groups of a product.
 * ``sparse``: structure-free candidates in groups with independent sparse conflicts.
 
-Usage: python benchmarks/bench_capacity.py [--states 200] [--seed 0] [--json out.json]
+Usage: python benchmarks/bench_capacity.py [--states 20] [--seed 0] [--json out.json]
 Prints a table (median / p99 / max solve time and node counts per family and size) and JSON.
 """
 
@@ -33,9 +33,10 @@ def grid_problem(rng: random.Random, rows: int, cols: int, groups: int, max_per_
     members: dict[int, frozenset] = {}
     anchors: dict[int, tuple[int, int]] = {}
     products = max(1, groups // 3)
-    for g in range(groups):
+    # A robot holds one item, so different groups have different holder (anchor) robots.
+    holders = rng.sample([(i, j) for i in range(rows) for j in range(cols)], groups)
+    for g, anchor in enumerate(holders):
         pid, op = g % products, f"op{g}"
-        anchor = (rng.randrange(rows), rng.randrange(cols))
         arity = rng.choice((1, 1, 2, 2, 2, 3, 4))
         blocks = []
         for di, dj in itertools.product((-1, 0), repeat=2):
@@ -148,7 +149,7 @@ def run(states: int, seed: int) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--states", type=int, default=100, help="random states per configuration")
+    parser.add_argument("--states", type=int, default=20, help="random states per configuration")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", help="also write the JSON report to this file")
     args = parser.parse_args(argv)

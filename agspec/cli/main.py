@@ -22,6 +22,11 @@ COMMANDS = {
     "catalogue": "agspec.cli.instance_cmds:catalogue",
     "run": "agspec.cli.run_cmds:run",
     "evaluate": "agspec.cli.run_cmds:evaluate",
+    "diff": "agspec.cli.diff_cmds:diff",
+    "conform": "agspec.cli.conform_cmds:conform",
+    "serve": "agspec.cli.conform_cmds:serve",
+    "check": "agspec.cli.conform_cmds:check",
+    "trace": "agspec.cli.conform_cmds:trace",
 }
 
 

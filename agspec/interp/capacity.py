@@ -22,19 +22,24 @@ above 64 candidates / 6 groups / 100,000 combinations; agspec is exact on every 
 search is a branch and bound over groups (include one option, or skip), on bitsets:
 
 1. the live candidate set is split into independent components (connected through conflicts,
-   groups, XOR keys and *binding* finite resources) that are solved separately and memoised;
-2. each component branches on its first group in the canonical order, options in canonical
-   order, then "skip";
-3. the upper bound is a greedy clique cover of the live conflict graph (at most one activity per
-   clique), also capped by the number of live groups (count) or the sum of group maxima
-   (weighted); a first-fit completion that meets the bound ends the node at once.
+   groups, XOR keys and *binding* finite resources) that are solved separately; every answer is
+   memoised on (live set, binding residual capacities);
+2. a component branches on its most constrained group (fewest live options), best option
+   first, then "skip"; subproblems get the value they must beat (fail-hard), so the parent's
+   incumbent prunes them;
+3. the upper bound is min(greedy clique cover of the live exclusion graph, Σ best value per
+   group minus a fractional matching of pairs of groups whose best options exclude each other);
+   first fit and a min-degree greedy give lower bounds, and when a lower bound meets the upper
+   bound the node is closed;
+4. propagation: once every remaining group is needed to beat the incumbent, options that exclude
+   all options of a needed group are removed and needed groups with one option are taken.
 
 Reported selection (resolution RES-CAPACITY-TIEBREAK): the optimum value is unique, the set is
 not.  We report the set the original's search reports whenever that search is exact: the greedy
 seed if it is optimal, otherwise the first optimal set in its depth-first order (groups by
 (size, product, op); options by (size, duration, id) for count or (-weight, id) for weight;
-including before skipping).  Components do not change that order: the first optimal assignment of
-a product of independent choices is the product of the components' first optimal assignments.
+including before skipping).  Once the optimum is known, that set is found by a descent along the
+canonical order (:meth:`_Search.first_optimum`).
 """
 
 from __future__ import annotations
@@ -77,7 +82,9 @@ class CapacityProblem:
     ``conflicts`` holds pairwise incompatibilities as ``frozenset({i, j})`` of :attr:`Cand.index`
     values (shared robot, geometry, or anything else the caller knows about).  Resources missing
     from ``resource_capacity`` have capacity 1.  ``resource_external_use`` counts committed users
-    outside the choice: logistics reservations and running operation teams.
+    outside the choice: logistics reservations and running operation teams.  Candidates
+    should already be compatible with the active reservations; one whose resource has no
+    residual capacity left is dropped before anything else (it never counts in a group's size).
     """
 
     running: int
@@ -194,14 +201,15 @@ def _bits(mask: int) -> Iterable[int]:
 class _Search:
     """Branch and bound over one problem, on bitsets.
 
-    Local index = position in the depth-first order (groups in order, options in order), so the
-    lowest set bit of a live set is the first option of its first group, and first fit in bit
-    order is the lexicographically first feasible assignment.
+    Local index = position in the canonical depth-first order (groups in order, options in
+    order), so the lowest set bit of a live set is the first option of its first group, and
+    first fit in bit order is the lexicographically first feasible assignment.
 
     ``solve(live, residual, floor)`` answers "the best selection on ``live`` if its value beats
-    ``floor``": it returns ``(value, mask, True)`` with the optimum and its first optimal
-    selection in depth-first order, or ``(bound, None, False)`` when the optimum is known to be
-    at most ``floor`` (fail-hard).  Both kinds of answers are memoised.
+    ``floor``": it returns ``(value, mask, True)`` with the optimum and one optimal selection,
+    or ``(bound, None, False)`` when the optimum is known to be at most ``floor`` (fail-hard).
+    Both kinds of answers are memoised.  ``first_optimum`` then extracts the canonical
+    selection.  Values are ints in count mode (every candidate worth 1), weights otherwise.
     """
 
     def __init__(self, problem: CapacityProblem, weighted: bool, node_budget: int):
@@ -265,6 +273,7 @@ class _Search:
         for gid, g in enumerate(ordered_groups):
             for cand in g:
                 self.group_id[position[cand.index]] = gid
+        self.heaviest_first = sorted(range(n), key=lambda k: (-self.value[k], k))
         self.touches = [
             sorted({self.group_id[u] for u in _bits(adj[k] & ~self.group_mask[k])}) for k in range(n)
         ]
@@ -341,11 +350,62 @@ class _Search:
             return value - 2 * WEIGHT_TOLERANCE * max(1.0, abs(value))
         return value - 1
 
-    def _upper_bound(self, live: int) -> float:
+    def _upper_bound(self, live: int, residual: tuple[int, ...], need: float | None = None) -> float:
+        """Upper bound on the best value over ``live``; cheap bounds first, and once a bound
+        no longer beats ``need`` (the value the caller must beat) it is returned at once.
+
+        1. :meth:`_graph_bound` on the whole live set;
+        2. a partition bound when finite resources bind: the live users of a binding resource
+           with residual capacity k hold at most k selected activities of distinct groups
+           (worth at most the k best group values); the rest is bounded by :meth:`_graph_bound`;
+        3. weighted mode: :meth:`_heavy_clique_bound`.
+        """
+        bound = self._graph_bound(live)
+        if self.res_users and (need is None or self._better(bound, need)):
+            value, group_mask = self.value, self.group_mask
+            partition, rest = 0, live
+            for ri, users_mask in enumerate(self.res_users):
+                users = rest & users_mask
+                best: list[float] = []
+                scan = users
+                while scan:
+                    low = scan & -scan
+                    g = scan & group_mask[low.bit_length() - 1]
+                    scan &= ~g
+                    best.append(value[low.bit_length() - 1])  # options are ordered best first
+                if len(best) > residual[ri]:
+                    best.sort(reverse=True)
+                    partition += sum(best[: residual[ri]])
+                    rest &= ~users
+            if rest != live:
+                bound = min(bound, partition + self._graph_bound(rest))
+        if self.weighted and (need is None or self._better(bound, need)):
+            bound = min(bound, self._heavy_clique_bound(live))
+        return bound
+
+    def _heavy_clique_bound(self, live: int) -> float:
+        """Weighted clique cover: candidates, heaviest first, join the first clique they fit
+        (else open one, worth their value), so light candidates ride along in heavy cliques."""
+        adj, value = self.adj, self.value
+        cliques: list[int] = []
+        cover = 0.0
+        for k in self.heaviest_first:
+            if live >> k & 1:
+                for c, members in enumerate(cliques):
+                    if not members & ~adj[k]:
+                        cliques[c] = members | (1 << k)
+                        break
+                else:
+                    cliques.append(1 << k)
+                    cover += value[k]
+        return cover
+
+    def _graph_bound(self, live: int) -> float:
         """min(clique cover, group bound) on the live exclusion graph.
 
-        * Clique cover: greedy cliques seeded at the lowest live bit (which absorbs that group);
-          a selection holds at most one activity per clique, worth at most its heaviest member.
+        * Clique cover: a selection holds at most one activity per clique, worth at most the
+          clique's heaviest member; cliques grow from the lowest live bit (which absorbs that
+          group).
         * Group bound: Σ over groups of the best live value t_g, minus a fractional matching on
           pairs of groups whose best options exclude each other: such a pair cannot collect
           t_g + t_h, one of the two settles for its second best s or nothing.  Each group g lends
@@ -413,7 +473,7 @@ class _Search:
             value, chosen = self._first_fit(live, residual)
             return value, chosen, True
         self.nodes += 1
-        upper = self._upper_bound(live)
+        upper = self._upper_bound(live, residual, floor)
         if not self._better(upper, floor):
             result = (upper, None, False)
         else:
@@ -451,7 +511,7 @@ class _Search:
     def _solve_components(self, components: list[int], residual: tuple[int, ...], floor: float):
         """Independent components: optimum = Σ component optima, first optimum = union of theirs.
         Component i must beat floor − (values found so far) − (bounds of the others)."""
-        bounds = [self._upper_bound(c) for c in components]
+        bounds = [self._upper_bound(c, residual) for c in components]
         rest_bound = sum(bounds)
         total, chosen = 0, 0
         for comp, ub in zip(components, bounds):
@@ -492,7 +552,7 @@ class _Search:
         branches.append((None, live & ~group, residual))
         for k, sub_live, sub_res in branches:
             gain = 0 if k is None else self.value[k]
-            if not self._better(gain + self._upper_bound(sub_live), threshold):
+            if not self._better(gain + self._upper_bound(sub_live, sub_res, threshold - gain), threshold):
                 continue
             value, mask, exact = self.solve(sub_live, sub_res, threshold - gain)
             if exact and self._better(value + gain, threshold):
@@ -575,7 +635,7 @@ class _Search:
         """Does some selection on ``live`` reach ``target`` (within the weight tolerance)?"""
         if not self._better(target, 0):
             return True
-        if self._better(target, self._upper_bound(live)):
+        if self._better(target, self._upper_bound(live, residual)):
             return False
         if not self._better(target, self._heuristic(live, residual)):
             return True
@@ -630,6 +690,8 @@ def _sortable(key: Hashable):
 
 
 def _solve(problem: CapacityProblem, weighted: bool, node_budget: int) -> CapacityResult:
+    if weighted and any(not c.weight > 0 for c in problem.candidates):
+        raise ValueError("productive weights must be positive (M-CAPACITY weighted mode)")
     search = _Search(problem, weighted, node_budget)
     value, chosen = search.run()
     greedy = _first_fit(problem, _greedy_weight_key if weighted else _greedy_count_key)

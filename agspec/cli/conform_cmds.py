@@ -1,0 +1,157 @@
+"""Conformance commands: ``agspec conform``, ``agspec serve``, ``agspec check``, ``agspec trace validate``.
+
+Exit codes follow F-EXIT-CODES: 0 conformant / valid / check passed, 1 nonconformant / invalid /
+violations, 2 usage or I/O error, 3 harness or protocol error.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import click
+
+from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+
+
+# =============================================================================================== conform
+
+
+@click.command("conform")
+@click.option("--impl", "impl_spec", default=None, metavar="SPEC",
+              help='Implementation under test: "reference", "python:pkg.module:factory" or a command line ("./sim --agspec").')
+@click.option("--impl-timeout", type=float, default=5.0, show_default=True, help="Per-request timeout, seconds.")
+@click.option("-k", "keyword", default=None, metavar="EXPR", help="Select cases/episodes by id, title, tag, rule or glob (and/or/not).")
+@click.option("-x", "exitfirst", is_flag=True, help="Stop at the first failure or error.")
+@click.option("--max-fail", type=int, default=None, metavar="N", help="Stop after N failures or errors.")
+@click.option("-j", "--jobs", type=int, default=1, show_default=True, help="Worker processes (each with its own implementation).")
+@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
+              help="Write the JSON Lines report (F-REPORT) here, line by line.")
+@click.option("--expect", "expect_path", type=click.Path(dir_okay=False), default=None,
+              help="Expected-failures file (YAML or JSON): {id: {outcome: fail|error, reason: ...}}.")
+@click.option("--episodes", type=int, default=2, show_default=True,
+              help="Catalogue episodes per scenario: greedy plus N-1 seeded random (0: none).")
+@click.option("--ticks", type=int, default=60, show_default=True, help="Ticks per catalogue episode.")
+@FORMAT_OPTION
+@click.option("--validate-protocol", is_flag=True, help="Validate every message in both directions against the schemas.")
+@click.option("--coverage", is_flag=True, help="Print which rules and invariants the suite exercises, and exit.")
+@click.option("--replay", "replay_path", type=click.Path(dir_okay=False), default=None,
+              help="Re-run a reproducer file (saved with a divergence).")
+@click.option("--no-suite", is_flag=True, help="Skip the conformance suite (run only catalogue episodes).")
+@click.option("--suite", "suite_dir", type=click.Path(file_okay=False), default=None, help="Suite root (default: the shipped conformance/).")
+@click.option("--repro-dir", type=click.Path(file_okay=False), default=".agspec/repro", show_default=True,
+              help="Where reproducers of failures are saved.")
+@click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
+def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
+            jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
+            validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
+            repro_dir: str, float_tolerance: float | None) -> None:
+    """Check an implementation against the AssemblyGrid v1 reference (F-CONFORM).
+
+    Runs the conformance suite and lockstep episodes on the official catalogue; every state is
+    compared with the reference interpreter and checked against the eleven invariants.
+    """
+    from agspec.cli import conform_view as view
+
+    if coverage:
+        raise SystemExit(view.show_coverage(suite_dir, fmt))
+    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("-j", jobs, 1), ("--episodes", episodes, 0),
+                             ("--ticks", ticks, 0)):
+        if value < low or (name == "--impl-timeout" and value <= 0):
+            fail(f"{name} must be {'> 0' if name == '--impl-timeout' else f'>= {low}'}, got {value}")
+    if max_fail is not None and max_fail < 1:
+        fail(f"--max-fail must be >= 1, got {max_fail}")
+    if exitfirst:
+        max_fail = 1
+    items, impl_spec, universe, suite_loaded = view.build_items(impl_spec, replay_path, no_suite, suite_dir,
+                                                                episodes, ticks)
+    from agspec.conform.select import SelectError, select
+
+    try:
+        selected = select(items, keyword)
+    except SelectError as exc:
+        fail(str(exc))
+    if not selected:
+        fail("no case or episode selected" + (f" by -k {keyword!r}" if keyword else ""))
+    expectations, stale = view.load_expect(expect_path, universe, suite_loaded)
+    options_record = {"impl_timeout": impl_timeout, "k": keyword, "max_fail": max_fail, "jobs": jobs,
+                      "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
+                      "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
+                      "float_tolerance": float_tolerance}
+    summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, jobs=jobs,
+                           expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
+                           repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt)
+    if fmt == "json":
+        emit_json(view.json_summary(summary))
+    else:
+        view.print_summary(summary, impl_spec)
+    raise SystemExit(summary.exit_code)
+
+
+# =============================================================================================== serve
+
+
+@click.command("serve")
+@click.option("--observations/--no-observations", default=True, show_default=True,
+              help="Send every robot's observation with each reply (capability `observations`).")
+@click.option("--masks/--no-masks", default=True, show_default=True, help="Send every robot's mask (capability `masks`).")
+def serve(observations: bool, masks: bool) -> None:
+    """Run the reference interpreter as an F-PROTOCOL simulator on stdin/stdout (JSON Lines)."""
+    import io
+
+    from agspec.conform.serve import Server, serve_stdio
+
+    stdin = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
+    raise SystemExit(serve_stdio(stdin, sys.stdout, Server(observations=observations, masks=masks)))
+
+
+# =============================================================================================== check
+
+
+@click.command("check")
+@click.argument("trace_path", metavar="TRACE", type=click.Path(dir_okay=False))
+@FORMAT_OPTION
+def check(trace_path: str, fmt: str) -> None:
+    """Check a trace (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard."""
+    from agspec.cli import conform_view as view
+
+    raise SystemExit(view.check_trace_command(trace_path, fmt))
+
+
+# =============================================================================================== trace
+
+
+@click.group("trace")
+def trace() -> None:
+    """Trace exchange files (F-TRACE)."""
+
+
+@trace.command("validate")
+@click.argument("trace_path", metavar="FILE", type=click.Path(dir_okay=False))
+@FORMAT_OPTION
+def trace_validate(trace_path: str, fmt: str) -> None:
+    """Validate a trace against schemas/trace.schema.json and the F-TRACE structure (located errors)."""
+    from agspec.trace.read import read_trace
+
+    records, diags = read_trace(trace_path)
+    io_error = any(d.code in ("AG001", "AG002") and d.line is None for d in diags)
+    if fmt == "json":
+        emit_json({"file": trace_path, "records": len(records), "valid": not diags,
+                   "diagnostics": [_diag_json(d) for d in diags]})
+    else:
+        for d in diags[:50]:
+            stderr.print(d.render(), markup=False)
+        if len(diags) > 50:
+            stderr.print(f"… {len(diags) - 50} more problems", markup=False)
+        if not diags:
+            ticks = sum(1 for r in records if r.get("type") == "tick")
+            stdout.print(f"{trace_path}: valid trace ({ticks} tick records)")
+    raise SystemExit(EXIT_USAGE if io_error else (EXIT_INVALID if diags else EXIT_OK))
+
+
+def _diag_json(d: Any) -> dict[str, Any]:
+    return {"code": d.code, "severity": d.severity, "message": d.message, "file": d.file, "line": d.line,
+            "col": d.col, "pointer": d.pointer, "hint": d.hint}
+
+
+__all__ = ["conform", "serve", "check", "trace"]

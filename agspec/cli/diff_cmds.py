@@ -1,0 +1,213 @@
+"""`agspec diff`: differential testing of two implementations with shrinking (issue 4, part 5)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+
+DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
+
+
+@click.command("diff")
+@click.option("--impl", "impls", multiple=True, required=True, metavar="SPEC",
+              help="An implementation (give exactly two): `reference`, `python:pkg.module:factory` or a command line.")
+@click.option("--scenario", "scenarios", multiple=True, metavar="S",
+              help="Catalogue scenario name, scenario .ag file or instance .json file (repeatable). "
+                   f"Default: {', '.join(DEFAULT_SCENARIOS)}.")
+@click.option("--episodes", type=click.IntRange(1), default=1, show_default=True,
+              help="Suite indices 0..N-1 per catalogue scenario (one episode per index and controller).")
+@click.option("--ticks", type=click.IntRange(1), default=60, show_default=True, help="Ticks per episode.")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed of the controllers, small instances and hypothesis.")
+@click.option("--controller", "controllers", multiple=True, type=click.Choice(["random", "greedy", "parallel-aware"]),
+              help="Controllers choosing the actions (repeatable). Default: random and greedy.")
+@click.option("--small", type=click.IntRange(0), default=1, show_default=True,
+              help="Small generated instances per scenario (its recipes on a 1..3 x 2..4 grid).")
+@click.option("--hypothesis-examples", type=click.IntRange(0), default=0, show_default=True,
+              help="Also search hypothesis-generated joint-action sequences (this many examples).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("agspec-diff"),
+              show_default=True, help="Where the shrunk counterexample is saved (a conformance case file).")
+@click.option("--impl-timeout", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
+              help="Seconds per protocol request before a subprocess implementation counts as hung.")
+@click.option("--shrink-budget", type=click.IntRange(0), default=400, show_default=True,
+              help="At most this many replays while shrinking (0: do not shrink).")
+@click.option("--shrink-seconds", type=click.FloatRange(min=0.0), default=120.0, show_default=True,
+              help="Time limit of shrinking.")
+@click.option("--any-divergence", is_flag=True,
+              help="While shrinking, accept any divergence (default: the same compared part and pointer shape).")
+@click.option("--keep-going", is_flag=True, help="Run every episode and report every divergent episode.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis_examples, out_dir, impl_timeout,
+         shrink_budget, shrink_seconds, any_divergence, keep_going, fmt) -> None:
+    """Drive two implementations in lockstep on generated episodes; shrink and save the first divergence.
+
+    Actions come from seeded random and greedy controllers acting on the driver's observations (the
+    reference if one side is `reference`, else A) and, with --hypothesis-examples, from hypothesis-
+    generated joint-action sequences drawn from the masks. States, events, observations, masks and
+    the end flag are compared every tick. Exit 0: no divergence; 1: divergent; 3: an implementation
+    failed (crash, timeout, protocol) or nothing was compared; 2: usage.
+    """
+    from agspec.conform import diff as D
+
+    if len(impls) != 2:
+        fail(f"give exactly two implementations (--impl A --impl B), got {len(impls)}", EXIT_USAGE)
+    quiet = fmt == "json"
+    log = (lambda *a, **k: None) if quiet else stderr.print
+
+    subjects: list[D.Subject] = []
+    for target in scenarios or DEFAULT_SCENARIOS:
+        try:
+            subjects += D.load_subjects(target, episodes, seed, small=small)
+        except Exception as exc:  # CatalogueError, InvalidDocumentError, bad JSON: usage errors
+            fail(f"--scenario {target}: {exc}", EXIT_USAGE)
+    try:
+        pair = D.open_pair(impls[0], impls[1], timeout=impl_timeout)
+    except D.ImplementationFailure as exc:
+        fail(exc.message, EXIT_HARNESS)
+    except ValueError as exc:
+        fail(str(exc), EXIT_USAGE)
+
+    start = time.perf_counter()
+    findings: list[D.Finding] = []
+    report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.driver}
+    try:
+        log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
+            f"{'A' if pair.driver == 'A' else 'B'} ({pair.expected_label}); {len(subjects)} instance(s)")
+
+        def on_episode(label: str, run: D.Run) -> None:
+            status = "[green]same[/]" if run.divergence is None else "[red]DIVERGES[/]"
+            log(f"  {label:<48} {run.ticks:>4} ticks  {status}")
+
+        exploration = D.explore(pair, subjects, controllers=controllers or ("random", "greedy"), seed=seed,
+                                ticks=ticks, on_episode=on_episode,
+                                first_only=not keep_going)
+        findings += exploration.findings
+        if hypothesis_examples and (keep_going or not findings):
+            log(f"  hypothesis: up to {hypothesis_examples} joint-action sequences of <= {min(ticks, 40)} ticks …")
+            found, tried = D.hypothesis_search(pair, subjects, examples=hypothesis_examples, ticks=min(ticks, 40),
+                                               seed=seed)
+            exploration.hypothesis_examples = tried
+            log(f"  hypothesis: {tried} sequences tried, " + ("a divergence" if found else "no divergence"))
+            if found is not None:
+                findings.append(found)
+        report["compared"] = {"episodes": exploration.episodes, "ticks": exploration.ticks,
+                              "states": exploration.states, "hypothesis_examples": exploration.hypothesis_examples}
+        report["findings"] = []
+        for finding in findings:
+            entry = _report_finding(pair, finding, out_dir, shrink_budget, shrink_seconds, any_divergence, log, quiet)
+            report["findings"].append(entry)
+    finally:
+        pair.close()
+    report["seconds"] = round(time.perf_counter() - start, 3)
+
+    vacuous = report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings
+    errors = [f for f in findings if f.run.divergence.where == "error"]
+    code = EXIT_HARNESS if (errors or vacuous) else (EXIT_INVALID if findings else EXIT_OK)
+    report["exit"] = code
+    if quiet:
+        emit_json(report)
+    else:
+        c = report["compared"]
+        summary = (f"{c['episodes']} episode(s), {c['ticks']} ticks compared"
+                   + (f", {c['hypothesis_examples']} hypothesis sequences" if c["hypothesis_examples"] else "")
+                   + f" in {report['seconds']:.1f} s: ")
+        if vacuous:
+            stdout.print(summary + "[red]nothing was compared[/] (vacuous run)")
+        elif not findings:
+            stdout.print(summary + "[green]no divergence[/]")
+        else:
+            stdout.print(summary + f"[red]{len(findings)} divergent episode(s)[/]")
+    raise SystemExit(code)
+
+
+def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, any_divergence: bool, log,
+                    quiet: bool) -> dict[str, Any]:
+    from agspec.conform import diff as D
+    from agspec.conform import shrink as S
+
+    run, subject = finding.run, finding.subject
+    d = run.divergence
+    entry: dict[str, Any] = {"instance": subject.label, "policy": finding.policy, "divergence": d.to_json(),
+                             "ticks": run.ticks, "actions": sum(1 for _ in D.non_idle(run.script))}
+    if budget > 0:
+        log(f"  shrinking ({budget} replays / {seconds:.0f} s at most) …")
+        shrunk = S.shrink(pair, subject.instance, subject.execution_seed, run.script, d, max_checks=budget,
+                          max_seconds=seconds, same_signature=not any_divergence)
+    else:
+        shrunk = S.Shrunk(subject.instance, subject.execution_seed, S.trim_script(run.script[: d.tick + 1]), d,
+                          original_ticks=max(0, d.tick + 1), original_actions=entry["actions"])
+    finding.shrunk = shrunk
+    final = replay_check(pair, shrunk)
+    coerced = final.coerced > 0 if final is not None else False
+    title = (f"diff: {pair.expected_label} vs {pair.actual_label}: {shrunk.divergence.where} "
+             f"{shrunk.divergence.pointer or ''} after tick {shrunk.divergence.tick}")
+    notes = (f"Found by `agspec diff` on {subject.label} with {finding.policy} ({entry['ticks']} ticks, "
+             f"{entry['actions']} non-idle actions); shrunk to {shrunk.ticks} ticks and {shrunk.actions} non-idle "
+             f"actions in {shrunk.checks} replays. Expected values are {pair.expected_label}'s.")
+    stem = f"diff-{_slug(subject.label)}-t{shrunk.divergence.tick}"
+    path = S.write_case(shrunk, out_dir, stem, title=title, notes=notes, coerced=coerced)
+    repro = None
+    if final is not None:  # F-REPRO: integer actions, replayable with `agspec conform --replay`
+        from agspec.conform.compare import make_reproducer, save_reproducer
+
+        repro = save_reproducer(out_dir, make_reproducer(
+            ident=stem, title=title, instance=shrunk.instance, execution_seed=shrunk.execution_seed,
+            actions=final.actions, impl=pair.other_spec, failure=shrunk.divergence.to_json()))
+    entry["shrunk"] = {"divergence": shrunk.divergence.to_json(), "ticks": shrunk.ticks, "actions": shrunk.actions,
+                       "script": shrunk.script, "replays": shrunk.checks, "seconds": round(shrunk.seconds, 3),
+                       "instance": shrunk.instance_notes, "budget_exhausted": shrunk.exhausted,
+                       "reproduces": final is not None and final.divergence is not None,
+                       "case": str(path), "reproducer": str(repro) if repro else None}
+    if not quiet:
+        _print_counterexample(pair, finding, shrunk, path, entry)
+    return entry
+
+
+def replay_check(pair, shrunk):
+    """Replay the shrunk counterexample once more (it must still diverge)."""
+    from agspec.conform import diff as D
+
+    try:
+        return D.replay(pair, shrunk.instance, shrunk.execution_seed, shrunk.script, max(1, shrunk.ticks))
+    except Exception:
+        return None
+
+
+def _slug(text: str) -> str:
+    out = "".join(ch if ch.isalnum() or ch in "-_." else "-" for ch in text)
+    return "-".join(p for p in out.split("-") if p)[:60]
+
+
+def _print_counterexample(pair, finding, shrunk, path: Path, entry: dict[str, Any]) -> None:
+    repro = entry["shrunk"].get("reproducer")
+    from agspec.conform import diff as D
+
+    d0, d = finding.run.divergence, shrunk.divergence
+    stdout.print(f"\n[bold red]divergence[/] on {finding.subject.label} with {finding.policy}: "
+                 f"{d0.where} {d0.pointer or ''} after tick {d0.tick}", markup=True)
+    stdout.print(f"[bold]minimal counterexample[/] ({entry['ticks']} -> {shrunk.ticks} ticks, "
+                 f"{entry['actions']} -> {shrunk.actions} non-idle actions, {shrunk.checks} replays, "
+                 f"{shrunk.seconds:.1f} s{'; budget exhausted' if shrunk.exhausted else ''})", markup=True)
+    for note in shrunk.instance_notes:
+        stdout.print(f"  instance: {note}", markup=False)
+    stdout.print("  " + d.show(f"expected ({pair.expected_label})", f"actual   ({pair.actual_label})")
+                 .replace("\n", "\n  "), markup=False)
+    actions = list(D.non_idle(shrunk.script))
+    if actions:
+        stdout.print("  actions (all others idle):", markup=False)
+        for t, robot, a in actions:
+            stdout.print(f"    t={t:<4} {robot:<6} {D.describe_action(a)}", markup=False)
+    else:
+        stdout.print("  actions: none (every robot idles)", markup=False)
+    impl = pair.other_spec
+    impl = f'"{impl}"' if " " in impl else impl
+    stdout.print(f"  saved case: {path}", markup=False)
+    stdout.print(f"    replay:  agspec conform --impl {impl} --suite {path.parent.parent} --episodes 0", markup=False)
+    if repro:
+        stdout.print(f"  reproducer: {repro}", markup=False)
+        stdout.print(f"    replay:  agspec conform --impl {impl} --replay {repro}", markup=False)

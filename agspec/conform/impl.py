@@ -1,0 +1,498 @@
+"""Implementations under test: one Python interface, three adapters (F-PROTOCOL).
+
+``--impl reference``                 :class:`ReferenceImpl`, the built-in interpreter, in process;
+``--impl python:pkg.module:factory`` :class:`PythonImpl`; ``factory()`` returns an object with
+                                     ``handle(msg) -> reply`` taking and returning the protocol's
+                                     messages as dicts (``pkg.module`` may also be a ``.py`` path);
+``--impl "CMD ARGS"``                :class:`SubprocessImpl`, a process speaking JSON Lines on
+                                     stdin/stdout (``shlex.split``, never a shell).
+
+Every adapter offers ``start() -> info``, ``load(instance)``, ``reset(seed) -> reply``,
+``step(actions) -> reply`` and ``close()``; a reply is a dict with ``t``, ``state``, ``events`` and,
+as declared by the capabilities, ``observations``, ``masks``, ``done`` and ``applied``.  Failures
+raise :class:`~agspec.conform.protocol.ProtocolError` (category ``crash``, ``timeout`` or
+``protocol``; F-PROTOCOL-ERRORS).  After a failure the adapter restarts on next use and replays its
+session commands (``start``, then ``load`` of the current instance), as Bowtie does, so one crashing
+or hanging case never takes the following ones down.
+"""
+
+from __future__ import annotations
+
+import collections
+import copy
+import importlib
+import importlib.util
+import json
+import os
+import queue
+import shlex
+import signal
+import subprocess
+import sys
+import threading
+import time
+import traceback
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from agspec.conform import protocol
+from agspec.conform.protocol import ProtocolError
+
+Reply = dict[str, Any]
+# on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
+MessageHook = Callable[[str, str, Any], None]
+
+
+class ImplSpecError(ValueError):
+    """``--impl`` names nothing that can be run (usage error, exit 2)."""
+
+
+class Implementation:
+    """Common protocol session logic: seq numbering, reply checks, schema validation, restart."""
+
+    spec: str = ""
+
+    def __init__(self, *, validate: bool = False, on_message: MessageHook | None = None):
+        self.validate = validate
+        self.on_message = on_message
+        self.info: dict[str, Any] = {}
+        self.capabilities: dict[str, bool] = {}
+        self._seq = 0
+        self._instance: Mapping[str, Any] | None = None
+        self._alive = False
+        self.restarts = 0
+        self.start_timeout: float | None = None  # the start request may take longer (process start-up)
+
+    # ---------------------------------------------------------------- transport (subclasses)
+
+    def _open(self) -> None:
+        """Make the transport ready (spawn a process, build the adapter)."""
+
+    def _exchange(self, msg: dict[str, Any], timeout: float | None) -> Any:
+        """Send ``msg`` and return the decoded reply whose seq matches (or raise ProtocolError)."""
+        raise NotImplementedError
+
+    def _shutdown(self) -> None:
+        """Release the transport."""
+
+    def stderr_tail(self) -> str:
+        return ""
+
+    # ---------------------------------------------------------------- requests
+
+    def _next_seq(self) -> int:
+        self._seq += 1
+        return self._seq
+
+    def _request(self, cmd: str, **fields: Any) -> Reply:
+        msg = protocol.request(cmd, self._next_seq(), **fields)
+        if self.on_message:
+            self.on_message("->", cmd, msg)
+        if self.validate:
+            problems = protocol.validate_request(msg)
+            if problems:  # a request we built is wrong: an agspec bug, reported loudly
+                raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
+        try:
+            reply = self._exchange(msg, self.start_timeout if cmd == "start" else None)
+            if self.on_message:
+                self.on_message("<-", cmd, reply)
+            if self.validate:
+                problems = protocol.validate_reply(cmd, reply)
+                if problems:
+                    raise ProtocolError("schema", f"the {cmd} reply violates schemas/protocol/{cmd}.reply.schema.json: "
+                                        + "; ".join(str(p) for p in problems[:3]), detail=[str(p) for p in problems])
+            protocol.check_reply(cmd, reply, self.capabilities if cmd != "start" else None)
+        except ProtocolError as exc:
+            if not exc.stderr:
+                exc.stderr = self.stderr_tail()
+            self._fail()
+            raise
+        return reply
+
+    def _fail(self) -> None:
+        """Forget the session after a failure: the next request restarts it."""
+        if self._alive:
+            self._alive = False
+            try:
+                self._shutdown()
+            except Exception:
+                pass
+
+    # ---------------------------------------------------------------- session
+
+    def start(self) -> dict[str, Any]:
+        """Open the transport and hand-shake (``start``); returns the start reply (``info``)."""
+        if self._alive:
+            return self.info
+        if self.info:
+            self.restarts += 1
+        self._open()
+        self._alive = True
+        reply = self._request("start", protocol=protocol.PROTOCOL)
+        self.info = {k: v for k, v in reply.items() if k not in ("seq", "ok")}
+        self.capabilities = protocol.normalize_capabilities(reply.get("capabilities"))
+        return self.info
+
+    def _ensure(self) -> None:
+        if not self._alive:
+            self.start()
+            if self._instance is not None:  # replay the session after a restart
+                self._request("load", instance=self._instance)
+
+    def load(self, instance: Mapping[str, Any]) -> None:
+        if not self._alive:
+            self.start()
+        self._instance = None
+        self._request("load", instance=instance)
+        self._instance = instance
+
+    def reset(self, execution_seed: int | None) -> Reply:
+        self._ensure()
+        return self._request("reset", execution_seed=execution_seed)
+
+    def step(self, actions: Mapping[str, int]) -> Reply:
+        self._ensure()
+        return self._request("step", actions=dict(actions))
+
+    def close(self) -> None:
+        if self._alive:
+            try:
+                self._request("stop")
+            except ProtocolError:
+                pass
+        self._alive = False
+        try:
+            self._shutdown()
+        except Exception:
+            pass
+
+    def describe(self) -> dict[str, Any]:
+        """For reports: the spec, and what the implementation said about itself."""
+        return {"spec": self.spec, **{k: v for k, v in self.info.items() if k in ("implementation", "capabilities", "protocol")}}
+
+    def __enter__(self) -> "Implementation":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+# ============================================================================================ in process
+
+
+class PythonImpl(Implementation):
+    """An in-process adapter: ``factory()`` returns an object with ``handle(msg) -> reply``.
+
+    Messages are passed as dicts; each request is a deep copy and each reply goes through a JSON
+    round trip (``isolate``), so an adapter cannot alias harness data and must answer plain JSON.
+    """
+
+    def __init__(self, factory: Callable[[], Any], spec: str = "python", *, isolate: bool = True, **kw: Any):
+        super().__init__(**kw)
+        self.factory = factory
+        self.spec = spec
+        self.isolate = isolate
+        self.adapter: Any = None
+        self._errors: list[str] = []
+
+    def _open(self) -> None:
+        try:
+            self.adapter = self.factory()
+        except Exception as exc:
+            raise ProtocolError("exception", f"the adapter factory raised {type(exc).__name__}: {exc}",
+                                stderr=traceback.format_exc())
+        if not callable(getattr(self.adapter, "handle", None)):
+            raise ProtocolError("exception", f"the adapter {type(self.adapter).__name__} has no handle(msg) method")
+
+    def _exchange(self, msg: dict[str, Any], timeout: float | None) -> Any:
+        try:
+            reply = self.adapter.handle(copy.deepcopy(msg) if self.isolate else msg)
+        except Exception as exc:
+            tb = traceback.format_exc()
+            self._errors.append(tb)
+            raise ProtocolError("exception", f"the adapter raised {type(exc).__name__}: {exc}", stderr=tb)
+        if self.isolate:
+            try:
+                reply = json.loads(protocol.encode(reply))
+            except (TypeError, ValueError) as exc:
+                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not plain JSON: {exc}")
+        if not isinstance(reply, dict):
+            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {reply!r:.80}")
+        _check_seq(msg, reply, self._seq)
+        return reply
+
+    def _shutdown(self) -> None:
+        self.adapter = None
+
+    def stderr_tail(self) -> str:
+        return self._errors[-1] if self._errors else ""
+
+
+class ReferenceImpl(PythonImpl):
+    """The built-in reference interpreter (:class:`agspec.conform.serve.Server`), in process."""
+
+    def __init__(self, **kw: Any):
+        from agspec.conform.serve import Server
+
+        kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
+        super().__init__(Server, spec="reference", **kw)
+
+
+def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:
+    """F-PROTOCOL: the reply echoes the request's seq; an earlier one is out of order."""
+    if "seq" not in reply:
+        raise ProtocolError("missing_field", f"the {msg['cmd']} reply has no `seq`")
+    got = reply["seq"]
+    if got == msg["seq"] and type(got) is type(msg["seq"]):
+        return
+    if isinstance(got, int) and not isinstance(got, bool) and 0 < got < current:
+        raise ProtocolError("out_of_order", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {got} "
+                                            "of an earlier request")
+    raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)}")
+
+
+# ============================================================================================ subprocess
+
+
+class SubprocessImpl(Implementation):
+    """A simulator process speaking F-PROTOCOL on stdin/stdout (no shell).
+
+    A reader thread turns stdout into lines on a queue, so every request waits at most ``timeout``
+    seconds; another thread keeps the last 64 KiB of stderr.  On a timeout the process group is
+    killed; on any failure the process is dropped and the next request restarts it.
+    """
+
+    STDERR_KEEP = 65536
+
+    def __init__(self, command: str | list[str], timeout: float = 5.0, *, max_restarts: int = 10,
+                 cwd: str | None = None, env: Mapping[str, str] | None = None, **kw: Any):
+        super().__init__(**kw)
+        self.argv = shlex.split(command) if isinstance(command, str) else list(command)
+        if not self.argv:
+            raise ImplSpecError("empty --impl command")
+        self.spec = command if isinstance(command, str) else shlex.join(command)
+        self.timeout = float(timeout)
+        self.start_timeout = max(self.timeout, 10.0)  # interpreter / JIT start-up is not a hang
+        self.max_restarts = max_restarts
+        self.cwd, self.env = cwd, dict(env) if env is not None else None
+        self.proc: subprocess.Popen | None = None
+        self._lines: queue.Queue = queue.Queue()
+        self._stderr: collections.deque = collections.deque()
+        self._stderr_size = 0
+        self._lock = threading.Lock()
+
+    # ---------------------------------------------------------------- process
+
+    def _open(self) -> None:
+        if self.restarts > self.max_restarts:
+            raise ProtocolError("spawn", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
+                                stderr=self.stderr_tail())
+        try:
+            self.proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                         stderr=subprocess.PIPE, cwd=self.cwd, env=self.env,
+                                         start_new_session=True)
+        except (OSError, ValueError) as exc:
+            raise ProtocolError("spawn", f"cannot start `{self.spec}`: {exc}")
+        self._lines = queue.Queue()
+        with self._lock:
+            self._stderr.clear()
+            self._stderr_size = 0
+        threading.Thread(target=self._read_stdout, args=(self.proc, self._lines), daemon=True).start()
+        threading.Thread(target=self._read_stderr, args=(self.proc,), daemon=True).start()
+
+    @staticmethod
+    def _read_stdout(proc: subprocess.Popen, lines: queue.Queue) -> None:
+        try:
+            for raw in iter(proc.stdout.readline, b""):
+                lines.put(raw)
+        except (OSError, ValueError):
+            pass
+        lines.put(None)  # end of stream
+
+    def _read_stderr(self, proc: subprocess.Popen) -> None:
+        try:
+            for chunk in iter(lambda: proc.stderr.read1(4096), b""):
+                with self._lock:
+                    self._stderr.append(chunk)
+                    self._stderr_size += len(chunk)
+                    while self._stderr_size > self.STDERR_KEEP and len(self._stderr) > 1:
+                        self._stderr_size -= len(self._stderr.popleft())
+        except (OSError, ValueError):
+            pass
+
+    def stderr_tail(self, limit: int = 4000) -> str:
+        with self._lock:
+            data = b"".join(self._stderr)
+        text = data.decode("utf-8", "replace")
+        return text[-limit:]
+
+    def _exit_error(self, what: str) -> ProtocolError:
+        proc = self.proc
+        code = None
+        if proc is not None:
+            try:
+                code = proc.wait(timeout=1.0)
+            except subprocess.TimeoutExpired:
+                code = None
+        time.sleep(0.05)  # let the stderr reader drain
+        if code is None or code == 0:
+            return ProtocolError("eof", f"the simulator closed its stdout {what}"
+                                        + (" (exit status 0)" if code == 0 else ""), stderr=self.stderr_tail())
+        how = f"signal {-code}" if code < 0 else f"status {code}"
+        return ProtocolError("exit", f"the simulator exited with {how} {what}", stderr=self.stderr_tail())
+
+    def _exchange(self, msg: dict[str, Any], timeout: float | None) -> Any:
+        proc = self.proc
+        if proc is None:
+            raise ProtocolError("eof", "the simulator is not running")
+        line = protocol.encode(msg) + "\n"
+        try:
+            proc.stdin.write(line.encode("utf-8"))
+            proc.stdin.flush()
+        except (BrokenPipeError, OSError, ValueError):
+            raise self._exit_error(f"before the {msg['cmd']} request could be sent")
+        limit = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise ProtocolError("timeout", f"no reply to {msg['cmd']} (seq {msg['seq']}) within {limit:g} s",
+                                    stderr=self.stderr_tail())
+            try:
+                raw = self._lines.get(timeout=remaining)
+            except queue.Empty:
+                continue
+            if raw is None:
+                self._lines.put(None)
+                raise self._exit_error(f"while the harness waited for the {msg['cmd']} reply")
+            text = raw.decode("utf-8", "replace").strip()
+            if not text:
+                continue
+            try:
+                reply = json.loads(text)
+            except json.JSONDecodeError as exc:
+                shown = text if len(text) <= 120 else text[:117] + "..."
+                raise ProtocolError("malformed_json", f"a line on stdout is not JSON ({exc.msg}): {shown!r}",
+                                    stderr=self.stderr_tail())
+            if not isinstance(reply, dict):
+                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {text[:80]!r}")
+            _check_seq(msg, reply, self._seq)
+            return reply
+
+    def _shutdown(self) -> None:
+        proc, self.proc = self.proc, None
+        if proc is None:
+            return
+        try:
+            if proc.poll() is None:
+                try:
+                    proc.stdin.close()
+                except OSError:
+                    pass
+                try:
+                    proc.wait(timeout=0.5)
+                except subprocess.TimeoutExpired:
+                    self._kill(proc)
+        finally:
+            for stream in (proc.stdin, proc.stdout, proc.stderr):
+                try:
+                    stream.close()
+                except (OSError, ValueError):
+                    pass
+
+    @staticmethod
+    def _kill(proc: subprocess.Popen) -> None:
+        """Kill the process group this adapter started (start_new_session) and reap it."""
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError, OSError):
+            try:
+                proc.kill()
+            except OSError:
+                pass
+        try:
+            proc.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            pass
+
+    def _fail(self) -> None:
+        proc = self.proc
+        if proc is not None and proc.poll() is None:
+            self._kill(proc)
+        super()._fail()
+
+    def close(self) -> None:
+        if self._alive and self.proc is not None and self.proc.poll() is None:
+            try:
+                self._request_quiet_stop()
+            except ProtocolError:
+                pass
+        self._alive = False
+        self._shutdown()
+
+    def _request_quiet_stop(self) -> None:
+        msg = protocol.stop(self._next_seq())
+        if self.on_message:
+            self.on_message("->", "stop", msg)
+        reply = self._exchange(msg, min(self.timeout, 2.0))
+        if self.on_message:
+            self.on_message("<-", "stop", reply)
+        if self.validate:
+            problems = protocol.validate_reply("stop", reply)
+            if problems:
+                raise ProtocolError("schema", f"the stop reply violates its schema: {problems[0]}")
+
+
+# ============================================================================================ factory
+
+
+def _load_factory(target: str) -> Callable[[], Any]:
+    """``pkg.module:factory`` or ``path/to/file.py:factory`` -> the factory callable."""
+    module_name, sep, attr = target.rpartition(":")
+    if not sep or not module_name or not attr:
+        raise ImplSpecError(f"`python:{target}`: expected python:pkg.module:factory or python:path/file.py:factory")
+    try:
+        if module_name.endswith(".py") or os.sep in module_name or "/" in module_name:
+            path = Path(module_name)
+            if not path.is_file():
+                raise ImplSpecError(f"`python:{target}`: no file {module_name}")
+            name = f"agspec_impl_{abs(hash(str(path.resolve())))}"
+            spec = importlib.util.spec_from_file_location(name, path)
+            if spec is None or spec.loader is None:
+                raise ImplSpecError(f"`python:{target}`: cannot import {module_name}")
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(module_name)
+    except ImplSpecError:
+        raise
+    except Exception as exc:  # ImportError, or the module raising at import time
+        raise ImplSpecError(f"`python:{target}`: cannot import {module_name}: {type(exc).__name__}: {exc}") from None
+    factory = getattr(module, attr, None)
+    if not callable(factory):
+        raise ImplSpecError(f"`python:{target}`: {module_name} has no callable `{attr}`")
+    return factory
+
+
+def make_impl(spec: str, *, timeout: float = 5.0, validate: bool = False,
+              on_message: MessageHook | None = None) -> Implementation:
+    """The implementation an ``--impl`` value names (see the module docstring)."""
+    spec = (spec or "").strip()
+    if not spec:
+        raise ImplSpecError("--impl is empty")
+    if spec == "reference":
+        return ReferenceImpl(validate=validate, on_message=on_message)
+    if spec.startswith("python:"):
+        factory = _load_factory(spec[len("python:"):])
+        return PythonImpl(factory, spec=spec, validate=validate, on_message=on_message)
+    try:
+        argv = shlex.split(spec)
+    except ValueError as exc:
+        raise ImplSpecError(f"--impl {spec!r}: {exc}") from None
+    if not argv:
+        raise ImplSpecError("--impl is empty")
+    return SubprocessImpl(spec, timeout, validate=validate, on_message=on_message)
+
+
+__all__ = ["Implementation", "PythonImpl", "ReferenceImpl", "SubprocessImpl", "ImplSpecError", "make_impl", "Reply"]

@@ -1,0 +1,94 @@
+"""The JSON Lines conformance report (F-REPORT, ``schemas/report.schema.json``).
+
+``ReportWriter`` writes a header, one line per case as results arrive, stale-entry lines and a
+footer, flushing every line so that a crash of the harness loses nothing already decided: the file
+is then valid up to its last line and simply has no footer.  ``read_report`` reads one back and
+validates every line (located errors, never a traceback).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+from pathlib import Path
+from typing import IO, Any, Mapping
+
+from agspec import SPEC_VERSION, __version__
+from agspec.conform.protocol import PROTOCOL, validate
+
+REPORT_FORMAT = "agspec-conform-report/1"
+OUTCOMES = ("pass", "fail", "error", "skip", "xfail", "xpass")
+
+
+def dumps(record: Mapping[str, Any]) -> str:
+    return json.dumps(record, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=str)
+
+
+def header_record(implementation: Mapping[str, Any], options: Mapping[str, Any], selected: int) -> dict[str, Any]:
+    return {
+        "type": "header",
+        "format": REPORT_FORMAT,
+        "agspec_version": __version__,
+        "spec_version": SPEC_VERSION,
+        "protocol": PROTOCOL,
+        "started_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "implementation": dict(implementation),
+        "options": dict(options),
+        "selected": int(selected),
+    }
+
+
+class ReportWriter:
+    """Writes report records one line at a time (flush per line); a no-op without a path."""
+
+    def __init__(self, path: str | Path | None):
+        self.path = Path(path) if path else None
+        self._fh: IO[str] | None = open(self.path, "w", encoding="utf-8") if self.path else None
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        if self._fh is None:
+            return
+        self._fh.write(dumps(record) + "\n")
+        self._fh.flush()
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def __enter__(self) -> "ReportWriter":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
+    """Records of a report file and its problems (``file:line: pointer: message``); empty problems = valid.
+
+    A report must start with a header; a missing footer is reported as incomplete.
+    """
+    records: list[dict[str, Any]] = []
+    problems: list[str] = []
+    path = Path(path)
+    with open(path, encoding="utf-8") as fh:
+        for lineno, text in enumerate(fh, start=1):
+            if not text.strip():
+                continue
+            try:
+                rec = json.loads(text)
+            except json.JSONDecodeError as exc:
+                problems.append(f"{path}:{lineno}: not JSON: {exc.msg}")
+                continue
+            for p in validate("report", rec):
+                problems.append(f"{path}:{lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
+            if isinstance(rec, dict):
+                records.append(rec)
+    if not records or records[0].get("type") != "header":
+        problems.append(f"{path}:1: the report does not start with a header")
+    if not records or records[-1].get("type") != "footer":
+        problems.append(f"{path}: incomplete: no footer (the run was interrupted)")
+    return records, problems
+
+
+__all__ = ["ReportWriter", "read_report", "header_record", "REPORT_FORMAT", "OUTCOMES", "dumps"]

@@ -1,0 +1,172 @@
+"""The reference interpreter speaking F-PROTOCOL: ``agspec serve`` and the in-process adapter.
+
+:class:`Server` answers protocol messages (dicts) with the reference interpreter; ``serve_stdio``
+runs it over JSON Lines on stdin/stdout.  ``agspec conform --impl "agspec serve"`` therefore
+exercises the whole protocol, and simulator authors have a live peer to test their client code
+against.  ``python:agspec.conform.serve:Server`` is the same server as an in-process adapter.
+
+Robustness (F-PROTOCOL): a malformed request gets an error reply, never a crash — a line that is not
+JSON (``bad_json``), not an object or without a known ``cmd`` (``bad_request``, ``unknown_cmd``),
+a protocol version it does not speak (``unsupported_protocol``), an instance the interpreter cannot
+load (``invalid_instance``), ``reset`` before ``load`` (``not_loaded``), ``step`` before ``reset``
+(``not_reset``), malformed actions (``bad_actions``), an action-slot overflow (``slot_overflow``,
+O-ACTION-ENCODING) and any unexpected failure (``internal``, with the traceback on stderr).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import traceback
+from typing import IO, Any, Mapping
+
+from agspec import __version__
+from agspec.conform.protocol import PROTOCOL, encode, error_reply
+
+IMPLEMENTATION = {"name": "agspec-reference", "version": __version__, "language": "python"}
+
+
+class RequestError(Exception):
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code, self.message = code, message
+
+
+class Server:
+    """The reference interpreter behind the protocol; ``handle(msg) -> reply`` (no JSON encoding)."""
+
+    def __init__(self, observations: bool = True, masks: bool = True):
+        self.capabilities = {"observations": bool(observations), "masks": bool(masks),
+                             "privileged_state": True, "events": True}
+        self.sim = None
+        self.instance: dict[str, Any] | None = None
+        self.started = False
+        self.was_reset = False
+        self.stopped = False
+
+    # ------------------------------------------------------------------ dispatch
+
+    def handle(self, msg: Any) -> dict[str, Any]:
+        """Answer one request; never raises."""
+        if not isinstance(msg, dict):
+            return error_reply(None, "bad_request", "a request is a JSON object with `cmd` and `seq`")
+        seq = msg.get("seq")
+        try:
+            cmd = msg.get("cmd")
+            if "seq" not in msg:
+                raise RequestError("bad_request", "the request has no `seq`")
+            handler = getattr(self, f"_cmd_{cmd}", None) if isinstance(cmd, str) else None
+            if handler is None:
+                raise RequestError("unknown_cmd", f"unknown command {cmd!r}; expected start, load, reset, step or stop")
+            return {"seq": seq, "ok": True, **handler(msg)}
+        except RequestError as exc:
+            return error_reply(seq, exc.code, exc.message)
+        except Exception as exc:  # an agspec bug: an error reply, and the traceback on stderr
+            traceback.print_exc(file=sys.stderr)
+            return error_reply(seq, "internal", f"internal error of the reference server: {type(exc).__name__}: {exc}")
+
+    # ------------------------------------------------------------------ commands
+
+    def _cmd_start(self, msg: Mapping[str, Any]) -> dict[str, Any]:
+        if msg.get("protocol") != PROTOCOL:
+            raise RequestError("unsupported_protocol", f"this server speaks {PROTOCOL}, not {msg.get('protocol')!r}")
+        self.started = True
+        return {"protocol": PROTOCOL, "implementation": dict(IMPLEMENTATION), "capabilities": dict(self.capabilities)}
+
+    def _cmd_load(self, msg: Mapping[str, Any]) -> dict[str, Any]:
+        from agspec.interp.tick import Simulator
+        from agspec.ir.schemas import validate_schema
+
+        instance = msg.get("instance")
+        if not isinstance(instance, dict):
+            raise RequestError("invalid_instance", "`instance` must be an instance IR object")
+        problems = [i for i in validate_schema(instance) if i.severity == "error"]
+        if problems:
+            first = problems[0]
+            raise RequestError("invalid_instance", f"{first.pointer or '/'}: {first.message} [{first.code}]")
+        try:
+            sim = Simulator(instance)
+        except Exception as exc:
+            raise RequestError("invalid_instance", f"the interpreter cannot load the instance: {type(exc).__name__}: {exc}")
+        self.sim, self.instance, self.was_reset = sim, instance, False
+        return {}
+
+    def _snapshot(self, events: list) -> dict[str, Any]:
+        from agspec.interp.snapshot import global_state
+
+        sim = self.sim
+        reply: dict[str, Any] = {"t": sim.t, "state": global_state(sim.state), "events": list(events)}
+        if self.capabilities["observations"]:
+            reply["observations"] = sim.observe()
+        if self.capabilities["masks"]:
+            reply["masks"] = sim.masks()
+        reply["done"] = sim.done
+        return reply
+
+    def _cmd_reset(self, msg: Mapping[str, Any]) -> dict[str, Any]:
+        if self.sim is None:
+            raise RequestError("not_loaded", "`reset` before `load`")
+        seed = msg.get("execution_seed")
+        if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
+            raise RequestError("bad_request", "`execution_seed` must be an integer or null")
+        self.sim.reset(seed)
+        self.was_reset = True
+        return self._snapshot(self.sim.reset_events)
+
+    def _cmd_step(self, msg: Mapping[str, Any]) -> dict[str, Any]:
+        from agspec.interp.observe import SlotOverflow
+
+        if self.sim is None:
+            raise RequestError("not_loaded", "`step` before `load`")
+        if not self.was_reset:
+            raise RequestError("not_reset", "`step` before `reset`")
+        actions = msg.get("actions", {})
+        if not isinstance(actions, dict):
+            raise RequestError("bad_actions", "`actions` must be an object: robot id -> action integer")
+        robots = set(self.sim.agents())
+        for robot, a in actions.items():
+            if robot not in robots:
+                raise RequestError("bad_actions", f"no robot {robot!r} in this instance")
+            if not isinstance(a, int) or isinstance(a, bool):
+                raise RequestError("bad_actions", f"the action of robot {robot} must be an integer, found {a!r}")
+        try:
+            result = self.sim.step(actions)
+        except SlotOverflow as exc:
+            raise RequestError("slot_overflow", f"O-ACTION-ENCODING: {exc}")
+        reply = self._snapshot(result.events)
+        reply["applied"] = dict(result.applied)
+        return reply
+
+    def _cmd_stop(self, msg: Mapping[str, Any]) -> dict[str, Any]:
+        self.stopped = True
+        return {}
+
+
+def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, server: Server | None = None) -> int:
+    """Serve requests line by line until ``stop`` or end of input; returns the exit status (0)."""
+    stdin = stdin or sys.stdin
+    stdout = stdout or sys.stdout
+    server = server or Server()
+    for line in stdin:
+        if not line.strip():
+            continue
+        try:
+            msg = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            reply = error_reply(None, "bad_json", f"the request is not JSON: {exc}")
+        else:
+            reply = server.handle(msg)
+        try:
+            stdout.write(encode(reply) + "\n")
+            stdout.flush()
+        except (BrokenPipeError, OSError):
+            return 0
+        except ValueError as exc:  # not encodable (NaN): an agspec bug, reported as such
+            stdout.write(encode(error_reply(reply.get("seq"), "internal", f"reply not encodable: {exc}")) + "\n")
+            stdout.flush()
+        if server.stopped:
+            return 0
+    return 0
+
+
+__all__ = ["Server", "serve_stdio", "IMPLEMENTATION"]

@@ -1,0 +1,452 @@
+"""Seeded mutants of the reference interpreter: each breaks ONE rule or invariant, realistically.
+
+A mutant is applied inside the simulator process (``tests/mutants/sim.py --mutant NAME``) by
+monkeypatching or wrapping a function of :mod:`agspec.interp` — the kind of bug a port of the
+simulator plausibly has (an off-by-one, a missing check, a refreshed clock) — or, for the
+robustness mutants, by misbehaving on the wire (crash, hang, garbage, wrong ``seq``).
+
+Every mutant declares what the harness must report for it:
+
+* ``outcome`` — ``"fail"`` (a divergence from the reference or an invariant violation) or
+  ``"error"`` (crash, timeout, protocol);
+* ``ids`` — the acceptable identifications, any of: an invariant ID (``INV-…``) reported with the
+  failure, a prefix of the JSON Pointer of the first divergence into the reply (``/state/wip``,
+  ``/observations/*/mask``; ``*`` matches one token), or the error ``kind/code`` of F-PROTOCOL-ERRORS
+  (``crash/exit``, ``timeout``, ``protocol/malformed_json``);
+* ``workload`` — a small instance and controller that trigger the mutant within a few ticks;
+* ``invariant`` — for mutants that break an invariant, the INV-ID the invariant checker must report on
+  the mutant's own trace *without* the reference (None for departures only a comparison can see: a
+  transfer without consent, an admission without support, a wrong duration).
+
+This module is test code: nothing in the product imports it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+HERE = Path(__file__).resolve().parent
+INSTANCES = HERE / "instances"
+
+
+@dataclass
+class Session:
+    """What a mutant may hook into besides the interpreter: the protocol loop of sim.py."""
+
+    # cmd -> list of callables(msg, session) run before the request is handled; may exit or hang
+    before: dict[str, list[Callable[[dict, "Session"], None]]] = field(default_factory=dict)
+    # callables(msg, reply) -> reply, or a str written verbatim instead of the JSON reply
+    after: list[Callable[[dict, dict], Any]] = field(default_factory=list)
+    sim: Any = None  # the agspec.interp.tick.Simulator of the loaded instance
+
+    def on(self, cmd: str, fn: Callable[[dict, "Session"], None]) -> None:
+        self.before.setdefault(cmd, []).append(fn)
+
+
+@dataclass(frozen=True)
+class Workload:
+    instance: str  # file name under tests/mutants/instances, or "catalogue:<scenario>:<index>"
+    controller: str = "greedy"
+    ticks: int = 12
+    seed: int = 1
+
+    def path(self) -> Path | None:
+        return None if self.instance.startswith("catalogue:") else INSTANCES / self.instance
+
+
+@dataclass(frozen=True)
+class Mutant:
+    name: str
+    breaks: str  # the rule / invariant it violates
+    description: str
+    apply: Callable[[Session], None]
+    outcome: str  # "fail" | "error"
+    ids: tuple[str, ...]
+    workload: Workload
+    invariant: str | None = None  # what the invariant checker alone (no reference) must report
+
+
+
+
+MUTANTS: dict[str, Mutant] = {}
+
+
+def mutant(name: str, breaks: str, outcome: str, ids: tuple[str, ...], workload: Workload,
+           invariant: str | None = None):
+    def register(fn: Callable[[Session], None]) -> Callable[[Session], None]:
+        MUTANTS[name] = Mutant(name, breaks, (fn.__doc__ or "").strip().splitlines()[0], fn, outcome, ids, workload,
+                               invariant)
+        return fn
+
+    return register
+
+
+# =============================================================================================
+# material
+
+
+@mutant("dup-handoff", "R-HANDOFF / INV-CONSERVATION", "fail", ("INV-CONSERVATION", "/state/robots/*/holding"),
+        Workload("pair-1x2-flat.json", "greedy", 8), "INV-CONSERVATION")
+def dup_handoff(session: Session) -> None:
+    """Duplicated item on handoff: the sender keeps a copy of the item it handed over."""
+    from agspec.interp import rules
+
+    orig = rules.complete_handoff
+
+    def complete_handoff(state, act, events):
+        orig(state, act, events)
+        state.robots[act.sender].holding = act.item  # BUG: should be None
+
+    rules.complete_handoff = complete_handoff
+
+
+@mutant("one-sided-handoff", "R-HANDOFF", "fail", ("/state/items", "/state/activities",
+                                                   "/state/robots/*/holding", "/state/robots/*/busy_until"),
+        Workload("pair-1x2-flat.json", "random", 6, seed=1))
+def one_sided_handoff(session: Session) -> None:
+    """One-sided handoff: a transfer starts without the receiver's matching receive action."""
+    from agspec.interp import rules
+    from agspec.interp.model import DIRECTIONS
+
+    orig = rules.start_handoffs
+
+    def start_handoffs(state, model, sends, receives, events):
+        receives = dict(receives)
+        for (i, j), d in sends.items():
+            di, dj = DIRECTIONS[d]
+            other = (i + di, j + dj)
+            if other in state.robots and other not in receives:
+                receives[other] = DIRECTIONS.index((-di, -dj))  # BUG: consent assumed
+        orig(state, model, sends, receives, events)
+
+    rules.start_handoffs = start_handoffs
+
+
+# =============================================================================================
+# support and admission
+
+
+@mutant("support-refresh", "R-SUPPORT-LIFECYCLE / INV-SUPPORT", "fail",
+        ("INV-SUPPORT", "/state/proposals/*/expires_at"),
+        Workload("duo-1x2-flat.json", "random", 8, seed=0), "INV-SUPPORT")
+def support_refresh(session: Session) -> None:
+    """Support that refreshes its timeout when a robot re-selects the candidate it already supports."""
+    from agspec.interp import rules
+
+    orig = rules.record_supports
+
+    def record_supports(state, model, supports, events):
+        for cell, cand in supports.items():
+            proposal = state.proposals.get(cand.cid)
+            if proposal is not None and state.robots[cell].supports == cand.cid:
+                proposal.expires_at = state.t + model.support_timeout  # BUG: no refresh in v1
+        orig(state, model, supports, events)
+
+    rules.record_supports = record_supports
+
+
+@mutant("admit-partial", "R-ADMISSION", "fail", ("/state/activities", "/state/proposals",
+                                                 "/state/robots/*/supports"),
+        Workload("duo-1x2-flat.json", "random", 8, seed=0))
+def admit_partial(session: Session) -> None:
+    """Admission without all supporters: one supporter is taken as the whole coalition's consent."""
+    from agspec.interp import rules
+
+    orig = rules.admit_candidates
+
+    def admit_candidates(state, model, by_id, events):
+        for cid, proposal in state.proposals.items():
+            cand = by_id.get(cid)
+            if cand is None or not proposal.votes or proposal.votes == set(cand.members):
+                continue
+            if all(state.robots[m].supports in (None, cid) for m in cand.members):
+                proposal.votes = set(cand.members)  # BUG: partners enlisted without their support
+                for m in cand.members:
+                    state.robots[m].supports = cid
+        return orig(state, model, by_id, events)
+
+    rules.admit_candidates = admit_candidates
+
+
+@mutant("nonadjacent-coalition", "R-CANDIDATES / INV-OBSERVATION", "fail",
+        ("INV-LOCALITY", "INV-OBSERVATION", "/observations/*/mask",
+                                          "/observations/*/operation_options"),
+        Workload("helped-3x2-flat.json", "greedy", 8), "INV-OBSERVATION")
+def nonadjacent_coalition(session: Session) -> None:
+    """Coalition with non-adjacent members: helpers are not checked for pairwise adjacency."""
+    from agspec.interp import candidates, tick
+
+    orig = candidates.build_candidates
+
+    class Loose:
+        """The model as build_candidates sees it: two empty-handed robots always count as adjacent."""
+
+        def __init__(self, model, state):
+            self._model, self._state = model, state
+
+        def __getattr__(self, name):
+            return getattr(self._model, name)
+
+        def adjacent(self, a, b):
+            robots = self._state.robots
+            if robots[a].holding is None and robots[b].holding is None:
+                return a != b  # BUG: the helper-helper test of R-CANDIDATES step 3 is skipped
+            return self._model.adjacent(a, b)
+
+    def build_candidates(state, model):
+        return orig(state, Loose(model, state))
+
+    tick.build_candidates = build_candidates
+
+
+@mutant("role-reassign", "R-EXECUTION / INV-LIFETIME", "fail", ("INV-LIFETIME", "/state/activities/*/roles"),
+        Workload("pair-1x2-flat.json", "greedy", 12), "INV-LIFETIME")
+def role_reassign(session: Session) -> None:
+    """Role reassignment mid-activity: the roles of a running coalition rotate two ticks after admission."""
+    from agspec.interp import rules
+
+    orig = rules.complete_activities
+
+    def complete_activities(state, model, events):
+        n = orig(state, model, events)
+        for act in state.activities:
+            if act.kind == "operation" and len(act.roles) >= 2 and act.start == state.t - 2 and act.end > state.t:
+                names = [r for _, r in act.roles]
+                act.roles = tuple(zip([m for m, _ in act.roles], names[1:] + names[:1]))  # BUG
+                for m, r in act.roles:
+                    state.robots[m].role_label = r
+        return n
+
+    rules.complete_activities = complete_activities
+
+
+# =============================================================================================
+# recipe logic
+
+
+@mutant("predecessor-ignored", "RC-PRECEDENCE / INV-RECIPE", "fail",
+        ("INV-RECIPE", "INV-OBSERVATION", "/observations/*/mask",
+         "/observations/*/operation_options"),
+        Workload("gate-2x2-flat.json", "random", 40, seed=2), "INV-RECIPE")
+def predecessor_ignored(session: Session) -> None:
+    """Predecessor ignored: readiness checks material only, not the operation's `after` entries."""
+    from agspec.interp import candidates
+
+    candidates.predecessors_done = lambda product, op, model: True  # BUG
+
+
+@mutant("xor-not-closed", "R-XOR-CLOSURE / INV-RECIPE", "fail", ("INV-RECIPE", "/state/products/*/xor"),
+        Workload("xor-2x2-flat.json", "greedy", 10), "INV-RECIPE")
+def xor_not_closed(session: Session) -> None:
+    """XOR sibling not closed: admitting an alternative does not record the group's choice."""
+    from agspec.interp import rules
+
+    orig = rules.admit
+
+    def admit(state, model, cand, proposal, events):
+        act = orig(state, model, cand, proposal, events)
+        if cand.op.xor_group is not None:
+            state.products[cand.pid].xor_choice.pop(cand.op.xor_group, None)  # BUG
+        return act
+
+    rules.admit = admit
+
+
+@mutant("deliver-early", "R-DELIVERY / INV-ACCOUNTING", "fail",
+        ("INV-ACCOUNTING", "/state/delivered", "/state/products/*/delivered_at"),
+        Workload("solo-1x2-flat.json", "greedy", 12), "INV-ACCOUNTING")
+def deliver_early(session: Session) -> None:
+    """Delivery before completion: the product counts as delivered when the delivery starts."""
+    from agspec.interp import rules
+
+    orig_start = rules.start_deliveries
+
+    def start_deliveries(state, model, cells, events):
+        before = {a.aid for a in state.activities}
+        orig_start(state, model, cells, events)
+        for act in state.activities:
+            if act.kind == "deliver" and act.aid not in before:
+                product = state.products[act.product]
+                product.delivered, product.complete_time = True, state.t  # BUG: at start
+                state.delivered += 1
+
+    def complete_delivery(state, act, events):
+        (cell,) = act.members
+        state.robots[cell].holding = None
+        state.item_holder.pop(act.item, None)
+        events.append({"type": "delivered", "activity": act.aid, "product": act.product,
+                       "robot": f"{cell[0]},{cell[1]}"})
+
+    rules.start_deliveries = start_deliveries
+    rules.complete_delivery = complete_delivery
+
+
+# =============================================================================================
+# resources, accounting, durations
+
+
+@mutant("resource-over-capacity", "R-JOINT-ADMISSIBLE / INV-EXCLUSIVITY", "fail",
+        ("INV-EXCLUSIVITY",),
+        Workload("bench-3x2-flat.json", "greedy", 10), "INV-EXCLUSIVITY")
+def resource_over_capacity(session: Session) -> None:
+    """Resource over capacity: a finite resource counts as exhausted only once MORE units than it has are used."""
+    from agspec.interp import rules
+
+    def exhausted(state, model, resources):
+        for r in resources:
+            used = sum(1 for a in state.activities if r in a.resources)
+            if used > model.resource_cap(r):  # BUG: should be >=
+                return True
+        return False
+
+    rules.exhausted = exhausted
+
+
+@mutant("wip-drift", "R-RELEASE / INV-ACCOUNTING", "fail", ("INV-ACCOUNTING", "/state/wip"),
+        Workload("solo-1x2-flat.json", "greedy", 12), "INV-ACCOUNTING")
+def wip_drift(session: Session) -> None:
+    """WIP count drift: the WIP counter is not decremented when a delivery completes."""
+    from agspec.interp import rules
+    from agspec.interp.state import State
+
+    State.wip = property(lambda s: s.released - s.delivered + int(s.counters.get("_wip_drift", 0)))
+    orig = rules.complete_delivery
+
+    def complete_delivery(state, act, events):
+        orig(state, act, events)
+        state.counters["_wip_drift"] = state.counters.get("_wip_drift", 0) + 1  # BUG
+
+    rules.complete_delivery = complete_delivery
+
+
+@mutant("duration-round", "G-DURATION", "fail",
+        ("/state/activities/*/retreat", "/state/activities/*/end",
+         "/state/robots/*/busy_until"),
+        Workload("solo-2x3-motion.json", "greedy", 4))
+def duration_round(session: Session) -> None:
+    """Wrong duration rounding: the retreat is round(f_ret * A) instead of ceil(f_ret * A)."""
+    from agspec.interp import geometry
+
+    orig = geometry.plan_activity
+
+    def plan_activity(members, process, profile, *, common_target=None):
+        plan = orig(members, process, profile, common_target=common_target)
+        if plan is None or not profile.get("motion_planning", True):
+            return plan
+        retreat = round(float(profile["retreat_fraction"]) * plan.approach)  # BUG: round, not ceil
+        return dataclasses.replace(plan, retreat=retreat, duration=max(1, plan.approach + plan.process + retreat))
+
+    geometry.plan_activity = plan_activity
+
+
+# =============================================================================================
+# observations and masks
+
+
+@mutant("obs-leak", "O-OBSERVATION / INV-OBSERVATION", "fail", ("INV-OBSERVATION", "/observations/*/neighbours"),
+        Workload("catalogue:flow-easy:0", "greedy", 3), "INV-OBSERVATION")
+def obs_leak(session: Session) -> None:
+    """Observation leaking remote robots: neighbour entries are listed out to Chebyshev distance 2."""
+    from agspec.interp import observe, tick
+    from agspec.interp.state import cell_id
+
+    orig = observe.observation
+
+    def observation(state, model, cell, options, mask):
+        obs = orig(state, model, cell, options, mask)
+        for other in sorted(state.robots):
+            dist = max(abs(other[0] - cell[0]), abs(other[1] - cell[1]))
+            if dist == 2:  # BUG: radius 2
+                nb = state.robots[other]
+                obs["neighbours"].append({"dir": "far", "robot": cell_id(other),
+                                          "holding": observe._held(state, model, other), "busy": not nb.free(state.t),
+                                          "failed": False, "op": nb.op_label, "role": nb.role_label})
+        return obs
+
+    tick.observation = observation
+
+
+@mutant("mask-hides", "O-MASK / INV-MASKING", "fail", ("INV-MASKING", "/observations/*/mask", "/masks"),
+        Workload("catalogue:flow-easy:0", "greedy", 3), "INV-MASKING")
+def mask_hides(session: Session) -> None:
+    """Mask hiding a legal local action: receiving from a diagonal neighbour is masked out."""
+    from agspec.interp import observe, tick
+
+    orig = observe.action_mask
+
+    def action_mask(state, model, cell, options):
+        mask = orig(state, model, cell, options)
+        for d in (1, 3, 5, 7):  # BUG: von Neumann thinking on a Moore grid
+            mask[observe.RECEIVE0 + d] = False
+        return mask
+
+    tick.action_mask = action_mask
+
+
+# =============================================================================================
+# robustness: the process misbehaves on the wire
+
+
+def _at_step(t: int, fn: Callable[[], None]) -> Callable[[dict, Session], None]:
+    def hook(msg: dict, session: Session) -> None:
+        if session.sim is not None and session.sim.t == t:
+            fn()
+
+    return hook
+
+
+def _die() -> None:
+    sys.stderr.write("mutant crash: segmentation fault (simulated)\n")
+    sys.stderr.flush()
+    os._exit(139)
+
+
+@mutant("crash", "F-PROTOCOL (crash)", "error", ("crash/exit", "crash/eof"),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def crash(session: Session) -> None:
+    """A crash: the process exits without replying to the step of epoch 3."""
+    session.on("step", _at_step(3, _die))
+
+
+@mutant("hang", "F-PROTOCOL (timeout)", "error", ("timeout",), Workload("catalogue:flow-easy:0", "greedy", 6))
+def hang(session: Session) -> None:
+    """A hang: the process sleeps forever on the step of epoch 2."""
+    session.on("step", _at_step(2, lambda: time.sleep(10**6)))
+
+
+@mutant("garbage", "F-PROTOCOL (malformed reply)", "error", ("protocol/malformed_json",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def garbage(session: Session) -> None:
+    """Garbage output: the reply to the step of epoch 1 is not JSON."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 2:
+            return "Segmentation fault (core dumped) {'t': 2, ok: yes"
+        return rep
+
+    session.after.append(reply)
+
+
+@mutant("wrong-seq", "F-PROTOCOL (seq not echoed)", "error", ("protocol/wrong_seq",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def wrong_seq(session: Session) -> None:
+    """Wrong seq: the reply to the step of epoch 2 echoes a different seq."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 3:
+            return {**rep, "seq": ["not", "the", "seq", rep.get("seq")]}
+        return rep
+
+    session.after.append(reply)
+
+
+def apply(name: str, session: Session) -> None:
+    if name not in MUTANTS:
+        raise KeyError(f"unknown mutant {name!r}; known: {', '.join(sorted(MUTANTS))}")
+    MUTANTS[name].apply(session)

@@ -1,0 +1,252 @@
+"""Proof that the harness can fail: seeded mutant simulators must all be caught (issue 4, part 6).
+
+Every mutant of tests/mutants/mutant_registry.py runs as a subprocess simulator
+(``python tests/mutants/sim.py --mutant NAME``) through the conformance runner
+(agspec.conform.runner.run — what ``agspec conform`` uses) on its small workload, and must be
+reported with the right outcome class (``fail`` vs ``error``) and the right identification: an
+invariant ID the harness reports, the JSON Pointer prefix of the first divergence, or the protocol
+error kind/code.  The mutation score is printed and must be 100 %.  The same adapter without a
+mutant must pass the whole conformance suite and lockstep catalogue episodes.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import shlex
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+from agspec.conform import runner
+from agspec.conform.items import Item, catalogue_episodes, from_case
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "mutants"))
+
+import mutant_registry as registry  # noqa: E402  (tests/mutants/mutant_registry.py)
+
+SIM = HERE / "mutants" / "sim.py"
+TIMEOUT = 1.0  # --impl-timeout: the hang mutant costs one second
+
+
+def sim_spec(mutant: str | None = None) -> str:
+    return shlex.join([sys.executable, str(SIM)] + (["--mutant", mutant] if mutant else []))
+
+
+def workload_item(m: registry.Mutant) -> Item:
+    w = m.workload
+    if w.path() is not None:
+        inst = json.loads(w.path().read_text(encoding="utf-8"))
+    else:
+        from agspec.catalogue import load_scenario_bundle
+        from agspec.ir.instance import make_instance
+
+        _, scenario, index = w.instance.split(":")
+        sc, recipes, profile = load_scenario_bundle(scenario)
+        inst = make_instance(sc, recipes, profile, index=int(index))
+    return Item(id=f"mutant-{m.name}", kind="episode", title=f"{m.name} on {inst['id']} ({w.controller})",
+                instance=inst, execution_seed=inst["seeds"]["execution"], ticks=w.ticks,
+                controller={"name": w.controller, "seed": w.seed}, tags=("mutant",), location=w.instance)
+
+
+def reported_ids(failure: dict | None) -> list[str]:
+    """Everything the harness reported that identifies a failure."""
+    if not failure:
+        return []
+    out: list[str] = []
+    kind = failure.get("type")
+    if kind in ("crash", "timeout", "protocol"):
+        out += [kind, f"{kind}/{failure.get('code')}"]
+    if failure.get("path"):
+        out.append(failure["path"])
+    out += list(failure.get("ids") or [])
+    return out
+
+
+def matches(pattern: str, ident: str) -> bool:
+    """An invariant ID or error kind matches exactly; a pointer pattern matches a prefix of the reported
+    pointer, token by token, ``*`` standing for one token."""
+    if not pattern.startswith("/"):
+        return pattern == ident
+    if not ident.startswith("/"):
+        return False
+    want, got = pattern.split("/")[1:], ident.split("/")[1:]
+    return len(got) >= len(want) and all(fnmatch.fnmatchcase(g, w) for w, g in zip(want, got))
+
+
+def run_mutant(m: registry.Mutant) -> dict:
+    start = time.perf_counter()
+    summary = runner.run([workload_item(m)], sim_spec(m.name), timeout=TIMEOUT)
+    result, outcome = summary.results[0]
+    ids = reported_ids(result.failure)
+    hit = next((i for p in m.ids for i in ids if matches(p, i)), None)
+    return {"name": m.name, "breaks": m.breaks, "want": m.outcome, "outcome": outcome, "ids": ids, "hit": hit,
+            "killed": outcome == m.outcome and hit is not None, "exit": summary.exit_code,
+            "tick": (result.failure or {}).get("tick"), "seconds": time.perf_counter() - start,
+            "message": result.message}
+
+
+@pytest.fixture(scope="module")
+def mutant_results() -> dict[str, dict]:
+    with ThreadPoolExecutor(max_workers=2) as pool:  # -j 2 across mutants
+        rows = list(pool.map(run_mutant, registry.MUTANTS.values()))
+    return {row["name"]: row for row in rows}
+
+
+def test_enough_mutants():
+    assert len(registry.MUTANTS) >= 17
+    assert {m.outcome for m in registry.MUTANTS.values()} == {"fail", "error"}
+
+
+@pytest.mark.parametrize("name", list(registry.MUTANTS))
+def test_mutant_is_killed(name, mutant_results):
+    row = mutant_results[name]
+    m = registry.MUTANTS[name]
+    assert row["outcome"] == m.outcome, f"{name}: outcome {row['outcome']} ({row['message']}), want {m.outcome}"
+    assert row["hit"] is not None, f"{name}: reported {row['ids']}, none matches {m.ids}"
+    assert row["exit"] == (1 if m.outcome == "fail" else 3)  # F-EXIT-CODES
+
+
+# --------------------------------------------------------------------------- through the CLI
+
+
+CLI_MUTANTS = [m.name for m in registry.MUTANTS.values() if m.workload.instance == "catalogue:flow-easy:0"]
+
+
+@pytest.mark.parametrize("name", CLI_MUTANTS)
+def test_mutant_through_agspec_conform(name, tmp_path):
+    """`agspec conform --impl "python tests/mutants/sim.py --mutant NAME"` on the flow-easy catalogue episode:
+    the categorical exit code, the outcome class and the identification in the JSON report."""
+    from click.testing import CliRunner
+
+    from agspec.cli.main import cli
+
+    m = registry.MUTANTS[name]
+    args = ["conform", "--impl", sim_spec(name), "--no-suite", "--episodes", "1", "--ticks", str(m.workload.ticks),
+            "-k", "e-flow-easy-greedy", "--impl-timeout", str(TIMEOUT), "--format", "json", "--repro-dir",
+            str(tmp_path)]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == (1 if m.outcome == "fail" else 3), result.output
+    report = json.loads(result.stdout)
+    (record,) = report["results"]
+    assert record["outcome"] == m.outcome
+    ids = reported_ids(record["failure"])
+    assert any(matches(p, i) for p in m.ids for i in ids), ids
+    assert report["footer"]["states_compared"] >= 1  # not vacuous
+
+
+# --------------------------------------------------------------------------- the invariant checker alone
+
+
+def own_trace(m: registry.Mutant) -> list[dict]:
+    """The mutant's own F-TRACE records, its controller acting on its own observations — no reference
+    anywhere (the offline mode: a simulator writes a trace, ``agspec check`` validates it)."""
+    from agspec.conform.impl import make_impl
+    from agspec.controllers import make_controller
+
+    item = workload_item(m)
+    impl = make_impl(sim_spec(m.name), timeout=TIMEOUT)
+    try:
+        impl.start()
+        impl.load(item.instance)
+        reply = impl.reset(item.execution_seed)
+        records = [{"type": "header", "instance": item.instance, "execution_seed": item.execution_seed,
+                    "state": reply["state"], "events": reply["events"]}]
+        ctl = make_controller(item.controller["name"], item.controller["seed"])
+        ctl.reset(item.controller["seed"])
+        obs = reply["observations"]
+        for t in range(item.ticks):
+            try:
+                chosen = {r: int(a) for r, a in ctl.act(obs).items() if int(a)}
+            except Exception:  # a controller confused by a malformed observation idles
+                chosen = {}
+            reply = impl.step(chosen)
+            records.append({"type": "tick", "t": t, "actions": reply.get("applied", chosen), "chosen": chosen,
+                            "events": reply["events"], "state": reply["state"], "observations": obs})
+            obs = reply["observations"]
+            if reply["done"]:
+                break
+        records.append({"type": "footer", "ticks": len(records) - 1, "complete": True, "metrics": {}})
+        return records
+    finally:
+        impl.close()
+
+
+@pytest.fixture(scope="module")
+def invariant_results() -> dict[str, list[str]]:
+    from agspec.conform.invariants import check_trace
+
+    out = {}
+    for m in registry.MUTANTS.values():
+        if m.outcome == "fail":
+            out[m.name] = sorted({v.invariant for v in check_trace(own_trace(m)).violations})
+    return out
+
+
+@pytest.mark.parametrize("name", [m.name for m in registry.MUTANTS.values() if m.invariant])
+def test_invariant_checker_alone_catches_invariant_mutants(name, invariant_results):
+    """Mutants that break an invariant are caught by `agspec check` on their own trace, no reference needed."""
+    assert registry.MUTANTS[name].invariant in invariant_results[name], invariant_results[name]
+
+
+def test_mutation_score(mutant_results, invariant_results, capsys):
+    rows = list(mutant_results.values())
+    killed = sum(r["killed"] for r in rows)
+    lines = ["", f"{'mutant':<23} {'breaks':<37} {'outcome':<7} {'tick':>4}  {'identified by (conform)':<32} "
+                 "invariants alone (own trace)", "-" * 132]
+    for r in rows:
+        mark = "" if r["killed"] else "  SURVIVED"
+        alone = ", ".join(invariant_results.get(r["name"], [])) or ("-" if r["want"] == "fail" else "n/a")
+        lines.append(f"{r['name']:<23} {r['breaks']:<37} {r['outcome']:<7} {str(r['tick']):>4}  "
+                     f"{str(r['hit'] or r['ids']):<32} {alone}{mark}")
+    lines.append("-" * 132)
+    lines.append(f"mutation score: {killed}/{len(rows)} = {100.0 * killed / len(rows):.0f} % "
+                 f"(outcome class and identification both right)")
+    with capsys.disabled():
+        print("\n".join(lines))
+    assert killed == len(rows)
+
+
+# --------------------------------------------------------------------------- the adapter without a mutant
+
+
+def test_unmutated_adapter_passes_the_suite_and_episodes():
+    """tests/mutants/sim.py (no mutant) is conformant: every case of the suite and a lockstep episode per
+    official scenario (greedy), compared state by state with the reference."""
+    from agspec.conform.cases import load_suite
+
+    cases = load_suite()
+    items = [from_case(c) for c in cases] + catalogue_episodes(1, 12)
+    summary = runner.run(items, sim_spec(), timeout=10.0, jobs=2)
+    bad = [(r.item.id, r.item.title, outcome, r.message) for r, outcome in summary.results if outcome != "pass"]
+    assert bad == []
+    assert summary.exit_code == 0 and not summary.vacuous
+    assert summary.counts["pass"] == len(items) and len(cases) > 0
+    assert summary.states >= len(items)
+
+
+def test_workloads_pass_without_the_mutant():
+    """No false alarm: every mutant's workload passes on the unmutated adapter, so a kill is the mutant's doing."""
+    items = [workload_item(m) for m in registry.MUTANTS.values()]
+    unique = list({it.id: it for it in items}.values())
+    summary = runner.run(unique, sim_spec(), timeout=10.0)
+    assert [(r.item.id, o, r.message) for r, o in summary.results if o != "pass"] == []
+    assert summary.exit_code == 0
+
+
+def test_mutant_instances_are_current():
+    import make_instances  # tests/mutants/make_instances.py
+
+    assert make_instances.main(["--check"]) == 0, "run python tests/mutants/make_instances.py"
+
+
+def test_unknown_mutant_is_a_usage_error():
+    import subprocess
+
+    proc = subprocess.run([sys.executable, str(SIM), "--mutant", "no-such-bug"], capture_output=True, text=True,
+                          timeout=30)
+    assert proc.returncode == 2 and "unknown mutant" in proc.stderr
