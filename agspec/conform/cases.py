@@ -533,6 +533,8 @@ def _resolve_instance(ref: Any, root: Path, file: str, line: int | None) -> dict
         if not isinstance(data, dict) or data.get("kind") != "instance":
             raise SuiteError(Located(file, line, f"instance file {ref!r} does not hold an instance IR"))
         return data
+    if isinstance(ref, Mapping) and ref.get("kind") == "instance":
+        return copy.deepcopy(dict(ref))  # an inline instance IR (it has a "scenario" key too)
     if isinstance(ref, Mapping) and "scenario" in ref:
         try:
             return json.loads(_catalogue_instance(str(ref["scenario"]), int(ref["index"])))
