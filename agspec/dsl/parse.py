@@ -143,6 +143,7 @@ def _parser() -> Lark:
         lexer="contextual",
         propagate_positions=True,
         maybe_placeholders=True,
+        cache=True,  # parser tables cached in the temp dir: a cold CLI start skips LALR construction
     )
 
 
