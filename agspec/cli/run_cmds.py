@@ -156,9 +156,15 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
 @click.option("--metric", "metric_keys", multiple=True, default=("delivered",), show_default=True,
               help="Metrics to summarize.")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
+@click.option("--paper", is_flag=True, help="Run what the paper's tables report and compare (writes the report).")
+@click.option("--out-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"), show_default=True,
+              help="With --paper: where reproduction.md and reproduction.json are written.")
 def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None, indices: str | None,
-             jobs: int, metric_keys: tuple[str, ...], fmt: str) -> None:
+             jobs: int, metric_keys: tuple[str, ...], fmt: str, paper: bool, out_dir: Path) -> None:
     """Evaluate controllers over many instances: mean ± 95 % interval (1.96·s/√n) per scenario and controller."""
+    if paper:
+        _evaluate_paper(jobs, out_dir, fmt)
+        return
     from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS, CatalogueError, load_scenario_bundle, parse_indices
     from agspec.evaluate import evaluate as run_all
     from agspec.evaluate import summarize
@@ -209,3 +215,30 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
                 row.append("—" if not stat or stat["n"] == 0 else f"{stat['mean']:.2f} ± {stat['half_width']:.2f}")
             table.add_row(*row)
         stdout.print(table)
+
+
+def _evaluate_paper(jobs: int, out_dir: Path, fmt: str) -> None:
+    """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
+    from agspec.reproduce import default_plan, run_paper
+
+    if jobs < 1:
+        fail("-j must be at least 1")
+    total = sum(len(indices) for _, _, indices in default_plan())
+    show = fmt == "table" and sys.stderr.isatty()
+    with Progress(TextColumn("[bold]paper reproduction"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=stderr, disable=not show) as progress:
+        task = progress.add_task("episodes", total=total)
+        report = run_paper(workers=jobs, out_dir=out_dir, on_done=lambda run: progress.advance(task))
+    if fmt == "json":
+        emit_json(report)
+        return
+    table = Table(title=f"paper reproduction ({report['episodes']} episodes)")
+    for col in ("table", "scenario", "controller", "metric", "ours", "paper", "mark"):
+        table.add_column(col, justify="right" if col in ("ours", "paper") else "left")
+    for r in report["rows"]:
+        table.add_row(r["table"], r["scenario"], r["controller"], r["metric"],
+                      f"{r['ours']:.3f} ± {r['ours_half_width']:.3f}", str(r["paper"]), r["mark"])
+    stdout.print(table)
+    c = report["counts"]
+    stdout.print(f"{c['exact']} exact, {c['inside']} inside, {c['outside']} outside; "
+                 f"written to {out_dir / 'reproduction.md'} and {out_dir / 'reproduction.json'}")
