@@ -219,7 +219,7 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
 
 def _evaluate_paper(jobs: int, out_dir: Path, fmt: str) -> None:
     """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
-    from agspec.reproduce import default_plan, run_paper
+    from agspec.reproduce import default_plan, ours_text, paper_text, run_paper
 
     if jobs < 1:
         fail("-j must be at least 1")
@@ -236,8 +236,7 @@ def _evaluate_paper(jobs: int, out_dir: Path, fmt: str) -> None:
     for col in ("table", "scenario", "controller", "metric", "ours", "paper", "mark"):
         table.add_column(col, justify="right" if col in ("ours", "paper") else "left")
     for r in report["rows"]:
-        table.add_row(r["table"], r["scenario"], r["controller"], r["metric"],
-                      f"{r['ours']:.3f} ± {r['ours_half_width']:.3f}", str(r["paper"]), r["mark"])
+        table.add_row(r["table"], r["scenario"], r["controller"], r["metric"], ours_text(r), paper_text(r), r["mark"])
     stdout.print(table)
     c = report["counts"]
     stdout.print(f"{c['exact']} exact, {c['inside']} inside, {c['outside']} outside; "

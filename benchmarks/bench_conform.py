@@ -1,0 +1,95 @@
+"""Conformance overhead: `agspec conform --impl reference` over plain runs of the same episodes.
+
+Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--quick] [--json]
+
+Both sides are cold processes, so start-up is included on both:
+  conform:  agspec conform --impl reference --no-suite --episodes E --ticks T
+            (F-CONFORM-EPISODES: each official scenario at index 0, greedy plus E-1 seeded random)
+  plain:    the same episodes through agspec.evaluate.run_episode (what `agspec run` does), one process.
+overhead = conform / plain - 1   (target, issue 5: ≤ 0.5).  Peak memory of each is the child's max RSS.
+If `agspec conform` does not exist in this build, the benchmark says so and exits 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+from _common import agspec_cmd, emit, timed_run
+
+ROOT = Path(__file__).resolve().parents[1]
+
+PLAIN = """
+import sys
+from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
+from agspec.evaluate import run_episode
+from agspec.ir.instance import make_instance
+ticks, episodes = int(sys.argv[1]), int(sys.argv[2])
+scenarios = sys.argv[3:] or OFFICIAL_SCENARIOS
+for name in scenarios:
+    inst = make_instance(*load_scenario_bundle(name), index=0)
+    run_episode(inst, "greedy", horizon=ticks)
+    for k in range(1, episodes):
+        run_episode(inst, "random", horizon=ticks, seed=k)
+"""
+
+
+def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]:
+    """Wall time and the peak RSS (MiB) of this one child, from os.wait4's own rusage."""
+    import os
+    import tempfile
+    import time
+
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=err, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        done = subprocess.CompletedProcess(cmd, proc.returncode, out.read(), err.read())
+    return seconds, done, usage.ru_maxrss / 1024
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--ticks", type=int, default=400)
+    ap.add_argument("--episodes", type=int, default=1)
+    ap.add_argument("--scenario", action="append", default=None)
+    ap.add_argument("--quick", action="store_true", help="2 scenarios x 40 ticks (CI smoke)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    if args.quick:
+        args.ticks, args.scenario = 40, args.scenario or ["coalition-medium", "flow-easy"]
+    probe = subprocess.run([*agspec_cmd(), "conform", "--help"], capture_output=True, text=True)
+    if probe.returncode != 0:
+        print("agspec conform is not available in this build; conformance overhead not measured")
+        return
+    select = []
+    if args.scenario:
+        select = ["-k", " or ".join(f"e-{s}-*" for s in args.scenario)]
+    conform_cmd = [*agspec_cmd(), "conform", "--impl", "reference", "--no-suite", "--episodes", str(args.episodes),
+                   "--ticks", str(args.ticks), "--format", "json", *select]
+    plain_cmd = [sys.executable, "-c", PLAIN, str(args.ticks), str(args.episodes), *(args.scenario or [])]
+    plain_s, plain, plain_peak = _measure(plain_cmd)
+    conform_s, conform, conform_peak = _measure(conform_cmd)
+    rows = [
+        {"side": "plain run_episode", "wall_s": plain_s, "exit_code": plain.returncode, "peak_rss_mib": plain_peak},
+        {"side": "agspec conform --impl reference", "wall_s": conform_s, "exit_code": conform.returncode,
+         "peak_rss_mib": conform_peak},
+    ]
+    result = {"benchmark": "conform", "ticks": args.ticks, "episodes_per_scenario": args.episodes,
+              "scenarios": args.scenario or "all nine official", "plain_s": plain_s, "conform_s": conform_s,
+              "ratio": conform_s / plain_s, "overhead": conform_s / plain_s - 1, "target_overhead": 0.5,
+              "rows": rows}
+    if conform.returncode != 0:
+        result["conform_stderr"] = conform.stderr[-2000:]
+    emit(result, rows, ("side", "wall_s", "exit_code", "peak_rss_mib"),
+         f"conformance overhead: {conform_s / plain_s - 1:.2f}x the plain simulation", args.json)
+
+
+if __name__ == "__main__":
+    main()
