@@ -187,11 +187,15 @@ class StateView:
     items: dict[str, str]
     proposals: dict[str, Json]
     shelves: list[Json]
+    _free: dict[str, bool] = field(default_factory=dict)  # memo of free(); a view never changes
 
     def free(self, robot: str) -> bool:
         """D-STATE: free iff busy_until <= t and no incoming transfer."""
-        r = self.robots.get(robot) or {}
-        return int(r.get("busy_until") or 0) <= self.t and r.get("incoming") is None
+        known = self._free.get(robot)
+        if known is None:
+            r = self.robots.get(robot) or {}
+            known = self._free[robot] = int(r.get("busy_until") or 0) <= self.t and r.get("incoming") is None
+        return known
 
 
 def _view(state: Json) -> StateView:
@@ -262,6 +266,9 @@ class Context:
     evaluated: Counter = field(default_factory=Counter)  # invariant ID -> records evaluated
     skipped: dict[str, str] = field(default_factory=dict)  # invariant ID -> why a clause was skipped
     _views: dict[int, tuple[Json, StateView]] = field(default_factory=dict)
+    # static neighbourhoods of the grid, memoized per robot (the grid never changes within a trace)
+    _direction_nb: dict[str, list[tuple[int, str]]] = field(default_factory=dict)
+    _observable: dict[str, frozenset[str]] = field(default_factory=dict)
     _transitions: dict[tuple[int, int], tuple[Json, Json, Transition]] = field(default_factory=dict)
 
     @staticmethod
@@ -316,6 +323,12 @@ class Context:
 
     def direction_neighbours(self, robot: str) -> list[tuple[int, str]]:
         """(direction index, robot id) of u's G_handoff / G_obs neighbours, in DIRECTIONS order."""
+        cached = self._direction_nb.get(robot)
+        if cached is None:
+            cached = self._direction_nb[robot] = self._direction_neighbours(robot)
+        return cached
+
+    def _direction_neighbours(self, robot: str) -> list[tuple[int, str]]:
         c = parse_cell(robot)
         out = []
         for d, (di, dj) in enumerate(DIRECTIONS):
@@ -1206,8 +1219,7 @@ def inv_observation(ctx: Context, prev: Json | None, rec: Json) -> list[Violatio
         if picks != expected_picks:
             bad(robot, f"{robot}: pick options {picks}, O-PICK-OPTIONS gives {expected_picks}")
         # nothing about remote robots
-        allowed = {robot} | set(expected_nb) | {cell_id(c) for c in _manip_neighbours(ctx, robot)}
-        remote = sorted(_mentioned_robots(obs) - allowed)
+        remote = sorted(_mentioned_robots(obs) - _observable_ids(ctx, robot))
         if remote:
             bad(robot, f"observation of {robot} mentions remote robot(s) {remote}")
     # O-EXPOSURE: the same key gives every member the same candidate
@@ -1218,6 +1230,16 @@ def inv_observation(ctx: Context, prev: Json | None, rec: Json) -> list[Violatio
                 if m in all_options and cid not in all_options[m]:
                     bad(cid, f"candidate {cid} is offered to {robot} but not to its member {m}")
     return out
+
+
+def _observable_ids(ctx: Context, robot: str) -> frozenset[str]:
+    """Robots an observation of ``robot`` may mention: itself, its G_obs neighbours and its G_manip
+    neighbours (co-members of its candidates); memoized, the grid is static."""
+    cached = ctx._observable.get(robot)
+    if cached is None:
+        ids = {robot} | {nid for _, nid in ctx.direction_neighbours(robot)}
+        cached = ctx._observable[robot] = frozenset(ids | {cell_id(c) for c in _manip_neighbours(ctx, robot)})
+    return cached
 
 
 def _manip_neighbours(ctx: Context, robot: str) -> list[tuple[int, int]]:
@@ -1310,21 +1332,22 @@ def inv_masking(ctx: Context, prev: Json | None, rec: Json) -> list[Violation]:
     for robot, obs in observations.items():
         ctx.count(ID)
         mask = obs.get("mask") if isinstance(obs, dict) else None
-        if not (isinstance(mask, list) and len(mask) == N_ACTIONS and all(isinstance(x, bool) for x in mask)):
+        if not (isinstance(mask, list) and len(mask) == N_ACTIONS and set(map(type, mask)) == {bool}):
             out.append(Violation(ID, t, robot, f"{robot}: the mask is not {N_ACTIONS} booleans"))
             continue
         if not mask[IDLE]:
             out.append(Violation(ID, t, robot, f"{robot}: idle is masked; at least idle must always be legal"))
-        if not p.free(robot) and any(mask[1:]):
+        if not p.free(robot) and True in mask[1:]:
             legal = [_action_name(k) for k in range(1, N_ACTIONS) if mask[k]]
             out.append(Violation(ID, t, robot, f"{robot} is busy but its mask allows {legal}"))
         expected = expected_mask(ctx, p, robot, obs)
-        hidden = [_action_name(k) for k in range(N_ACTIONS) if expected[k] and not mask[k]]
-        exposed = [_action_name(k) for k in range(N_ACTIONS) if mask[k] and not expected[k]]
-        if hidden:
-            out.append(Violation(ID, t, robot, f"{robot}: the mask hides locally legal action(s) {hidden}"))
-        if exposed:
-            out.append(Violation(ID, t, robot, f"{robot}: the mask allows action(s) {exposed} that O-MASK forbids"))
+        if mask != expected:  # name the differing actions only when there are some
+            hidden = [_action_name(k) for k in range(N_ACTIONS) if expected[k] and not mask[k]]
+            exposed = [_action_name(k) for k in range(N_ACTIONS) if mask[k] and not expected[k]]
+            if hidden:
+                out.append(Violation(ID, t, robot, f"{robot}: the mask hides locally legal action(s) {hidden}"))
+            if exposed:
+                out.append(Violation(ID, t, robot, f"{robot}: the mask allows action(s) {exposed} that O-MASK forbids"))
         a = actions.get(robot, IDLE)
         if isinstance(a, int) and 0 <= a < N_ACTIONS and not mask[a]:
             out.append(Violation(ID, t, robot, f"{robot} applied {_action_name(a)}, which its mask forbids"))
