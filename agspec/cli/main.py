@@ -27,6 +27,7 @@ COMMANDS = {
     "serve": "agspec.cli.conform_cmds:serve",
     "check": "agspec.cli.conform_cmds:check",
     "trace": "agspec.cli.conform_cmds:trace",
+    "render": "agspec.cli.render_cmds:render",
 }
 
 

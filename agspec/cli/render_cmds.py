@@ -1,0 +1,166 @@
+"""`agspec render`: a self-contained HTML replay of a trace, or of a conformance divergence (issue 6)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, fail, stderr, stdout
+from agspec.controllers import CONTROLLERS
+
+
+@click.command("render")
+@click.argument("trace_path", metavar="[TRACE]", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The HTML file to write (default replay.html, or diff.html with --diff).")
+@click.option("--diff", "report", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="REPORT",
+              help="A conformance report (agspec conform --report): show its first divergence side by side.")
+@click.option("--case", "case_id", default=None, help="With --diff: the failing case to show (default: the first divergence).")
+@click.option("--replay", is_flag=True,
+              help="With --diff: re-run the reproducer's implementation for the full actual states "
+                   "(default: the report's recorded difference applied to the reference's states).")
+@click.option("--impl", "impl", default=None, metavar="SPEC",
+              help="With --diff: the implementation to re-run (implies --replay). Without a TRACE: record a trace "
+                   "of this implementation (a command line, python:pkg.mod:factory or reference) and render it.")
+@click.option("--scenario", default=None, metavar="SCENARIO|INSTANCE",
+              help="With --impl: the scenario (official name or .ag file) or instance .json to record.")
+@click.option("--index", type=int, default=0, show_default=True, help="With --scenario: the suite index.")
+@click.option("--ticks", type=click.IntRange(1), default=120, show_default=True, help="With --impl: ticks to record.")
+@click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True,
+              help="With --impl: the reference controller choosing the actions.")
+@click.option("--observations/--no-observations", default=True, show_default=True,
+              help="With --impl: record every robot's observation and mask in the trace.")
+@click.option("--trace", "save_trace", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="With --impl: also keep the recorded trace (F-TRACE JSON Lines) in this file.")
+@click.option("--impl-timeout", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
+              help="Seconds per protocol request before an implementation counts as hung.")
+@click.option("--keyframe", type=click.IntRange(1), default=25, show_default=True,
+              help="A full state every K ticks; per-tick diffs in between.")
+@click.option("--title", default=None, help="Page title (default: instance and controller).")
+def render(trace_path, out, report, case_id, replay, impl, scenario, index, ticks, controller, observations,
+           save_trace, impl_timeout, keyframe, title) -> None:
+    """Write one self-contained HTML file (no network) replaying TRACE, a divergence, or a recorded run.
+
+    \b
+      agspec render TRACE -o replay.html
+      agspec render --diff REPORT [--replay | --impl SPEC] -o diff.html
+      agspec render --impl "CMD ARGS" --scenario coalition-medium --ticks 120 -o replay.html
+
+    Exit 0: written; 1: the trace or report cannot be replayed (located message); 2: usage or I/O;
+    3: the implementation failed while being recorded.
+    """
+    from agspec.viewer.page import build_page
+
+    modes = sum([trace_path is not None, report is not None, impl is not None and report is None])
+    if modes != 1:
+        fail("give exactly one of: a TRACE file, --diff REPORT, or --impl SPEC --scenario S", EXIT_USAGE)
+    if report is not None:
+        data = _diff(report, case_id, replay, impl, impl_timeout, keyframe)
+        page = build_page(data, title=title or data["title"], mode="diff")
+        out = out or Path("diff.html")
+        summary = f"divergence of {data['case_id']} at state {data['focus']}"
+    else:
+        if impl is not None:
+            trace_path, failed = _record(impl, scenario, index, ticks, controller, observations, save_trace,
+                                         impl_timeout)
+        doc = _encode(trace_path, keyframe, title)
+        if impl is not None and save_trace is None and not failed:
+            import shutil
+
+            shutil.rmtree(trace_path.parent, ignore_errors=True)  # our temporary directory
+        page = build_page({"mode": "trace", "replay": doc}, title=doc["title"], mode="trace")
+        out = out or Path("replay.html")
+        summary = f"{doc['T']} ticks, {len(doc['states']['keys'][0]['robots'])} robots" + (
+            ", observations" if doc["observations"] else "")
+    try:
+        out.write_text(page, encoding="utf-8")
+    except OSError as exc:
+        fail(f"cannot write {out}: {exc.strerror or exc}", EXIT_USAGE)
+    stdout.print(f"wrote {out} ({len(page.encode('utf-8')) / 1e6:.2f} MB; {summary})")
+    if impl is not None and report is None and failed:
+        raise SystemExit(EXIT_HARNESS)  # the page shows the run up to the failure
+
+
+def _encode(path: Path, keyframe: int, title: str | None) -> dict:
+    """Read and encode a trace; schema problems are warnings (a viewer must show broken traces too)."""
+    from agspec.trace.read import read_trace
+    from agspec.viewer.encode import EncodeError, encode, trace_data
+
+    records, diags = read_trace(path)
+    fatal = [d for d in diags if d.code in ("AG001", "AG002")]
+    if fatal:
+        fail(fatal[0].message, EXIT_USAGE)
+    # unusable: nothing parsed, or no header first; anything else (a truncated or schema-invalid trace
+    # of a crashed simulator) is still worth looking at, with warnings
+    if not records or records[0].get("type") != "header":
+        order = {"AG003": 0, "AG601": 1, "AG606": 2}
+        d = min((d for d in diags if d.code in order), key=lambda d: order[d.code], default=None)
+        if d is not None:
+            fail(f"{path}:{d.line or 1}: error[{d.code}]: {d.message}", EXIT_INVALID)
+    for d in diags[:5]:
+        stderr.print(f"[yellow]warning[/]: {path}:{d.line or '?'}: {d.code}: {d.message}")
+    if len(diags) > 5:
+        stderr.print(f"[yellow]warning[/]: … {len(diags) - 5} more problem(s); `agspec trace validate {path}` lists them")
+    try:
+        return encode(trace_data(records, name=str(path)), keyframe=keyframe, title=title)
+    except EncodeError as exc:
+        fail(f"{exc} (F-TRACE)", EXIT_INVALID)
+
+
+def _record(impl: str, scenario: str | None, index: int, ticks: int, controller: str, observations: bool,
+            save: Path | None, timeout: float) -> tuple[Path, bool]:
+    """Record a trace of ``impl`` (F-PROTOCOL) into ``save`` or a temporary file; (path, failed).
+
+    When the implementation fails mid-run the partial trace (no footer, AG604) is still rendered and
+    the command exits 3 afterwards; when it fails before its first state there is nothing to show.
+    """
+    import tempfile
+
+    from agspec.cli.run_cmds import load_instance
+    from agspec.conform.impl import ImplSpecError
+    from agspec.trace.write import TraceWriter
+    from agspec.viewer.record import RecordError, record
+
+    if scenario is None:
+        fail("--impl needs --scenario (an official scenario name, a scenario .ag file or an instance .json)", EXIT_USAGE)
+    instance = load_instance(scenario, index, None)
+    path = save or Path(tempfile.mkdtemp(prefix="agspec-render-")) / "trace.jsonl"
+    try:
+        writer = TraceWriter(path)
+    except OSError as exc:
+        fail(f"cannot write trace {path}: {exc.strerror or exc}", EXIT_USAGE)
+    try:
+        rec = record(impl, instance, writer, ticks=ticks, controller=controller, observations=observations,
+                     timeout=timeout)
+    except ImplSpecError as exc:
+        fail(str(exc), EXIT_USAGE)
+    except RecordError as exc:
+        writer.close()
+        if writer.ticks == 0 and path.stat().st_size == 0:
+            fail(str(exc), EXIT_HARNESS)
+        stderr.print(f"[bold red]error[/]: {exc}; rendering the {writer.ticks} tick(s) recorded before it "
+                     f"(partial trace in {path})")
+        return path, True
+    finally:
+        writer.close()
+    stderr.print(f"recorded {rec.ticks} ticks of {rec.implementation.get('name', impl)} into {path}")
+    return path, False
+
+
+def _diff(report: Path, case_id, replay: bool, impl, timeout: float, keyframe: int) -> dict:
+    from agspec.conform.impl import ImplSpecError
+    from agspec.viewer.divergence import ReportError, build_diff
+    from agspec.viewer.record import RecordError
+
+    try:
+        return build_diff(report, case_id=case_id, replay=replay, impl=impl, timeout=timeout, keyframe=keyframe)
+    except ReportError as exc:
+        fail(str(exc), EXIT_USAGE if exc.usage else EXIT_INVALID)
+    except ImplSpecError as exc:
+        fail(str(exc), EXIT_USAGE)
+    except RecordError as exc:
+        fail(str(exc), EXIT_HARNESS)
+
+
+__all__ = ["render"]
