@@ -152,6 +152,7 @@ def build_diff(report: Path, *, case_id: str | None = None, replay: bool = False
         for t in range(n):
             ptrs = []
             for ptr, e, a in iter_differences(expected.states[t], actual.states[t]):
+                ptr = "/state" + ptr  # as the report writes its paths (F-REPORT `path`)
                 ptrs.append(ptr)
                 if len(ptrs) <= 40:
                     values[f"{t}|{ptr}"] = [show(e, 120), show(a, 120)]
