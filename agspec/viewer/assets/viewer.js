@@ -123,7 +123,7 @@
         const og = el("g", { class: "outbox" }, g);
         el("rect", { x: this.X(this.cols * s - 0.08 * s), y: this.Y(r * s - 0.25 * s), width: (0.5 * s * S).toFixed(1), height: (0.5 * s * S).toFixed(1), rx: 4 }, og);
         el("circle", { cx: this.X(this.cols * s), cy: this.Y(r * s), r: 2.5, fill: "#34a853" }, og);
-        el("text", { x: this.X(this.cols * s - 0.02 * s), y: this.Y(r * s + 0.05 * s) }, og).textContent = "out";
+        el("text", { x: this.X(this.cols * s + 0.06 * s), y: this.Y(r * s + 0.05 * s) }, og).textContent = "out";
       }
       // reach disks, on demand
       for (let i = 0; i < this.rows; i++) for (let j = 0; j < this.cols; j++)
@@ -474,7 +474,7 @@
       const parts = [
         sw("fill:#eef0f3;stroke:#b9c0cb", "idle robot"),
         sw("fill:#cfe3f7;stroke:#b9c0cb", "pick / handoff / delivery"),
-        sw("fill:#e4572e33;stroke:#e4572e;stroke-width:2", "coalition member (one colour per operation; role below, phase above)"),
+        sw("fill:#e4572e33;stroke:#e4572e;stroke-width:2", "coalition member (one colour per operation; role, phase p/D)"),
         '<span><svg width="16" height="14"><polygon points="8,1 15,7 8,13 1,7" fill="#e4572e"/></svg>operation target</span>',
         sw("fill:#2f3b52", "material item (at its holder's end effector)"),
         '<span><svg width="22" height="14"><line x1="1" y1="7" x2="21" y2="7" stroke="#e09f1f" stroke-width="2.5" stroke-dasharray="5 3"/></svg>pending support k/|U|</span>',
