@@ -129,6 +129,8 @@
       for (let i = 0; i < this.rows; i++) for (let j = 0; j < this.cols; j++)
         el("circle", { class: "reach", cx: this.X(j * s), cy: this.Y(i * s), r: (this.reach * S).toFixed(1) }, this.layers.reach);
       this.layers.reach.style.display = "none";
+      // the selected robot's reach disk is always shown
+      this.selReach = el("circle", { class: "reach-selected", r: (this.reach * S).toFixed(1), cx: -1000, cy: -1000 }, this.layers.props.parentNode.insertBefore(el("g", {}), this.layers.props));
       // robots
       const half = 0.36 * s;
       for (let i = 0; i < this.rows; i++) for (let j = 0; j < this.cols; j++) {
@@ -201,6 +203,11 @@
         R.title.textContent = id + (rb.holding ? " holding " + rb.holding : "") + (a ? " · " + a.id : "") + (rb.supports ? " · supports " + rb.supports : "");
       }
       this.busy = busy;
+      if (viewer.selected && this.robotEls[viewer.selected]) {
+        const [bx, by] = this.base(viewer.selected);
+        this.selReach.setAttribute("cx", this.X(bx)); this.selReach.setAttribute("cy", this.Y(by));
+        this.selReach.style.display = "";
+      } else this.selReach.style.display = "none";
       this.renderActs(st, blocked, events);
       this.renderItems(st, hl);
     }
@@ -324,6 +331,9 @@
     return '<div class="hint">' + (t === 0 ? "reset events" : "transition " + (t - 1) + " → " + t) + "</div>" +
       events.map((ev) => '<div class="row">' + describeEvent(ev) + "</div>").join("");
   }
+  function itemText(h) {
+    return (h && typeof h === "object") ? (h.product !== undefined ? h.product + ":" + h.token + (h.final ? " final" : "") : JSON.stringify(h)) : String(h);
+  }
   function slotLabel(a, ob) {
     if (a === 0) return "0 idle";
     if (a === 1) return "1 deliver";
@@ -349,15 +359,20 @@
     for (const k of Object.keys(ob)) {
       if (k === "mask") continue;
       let v = ob[k];
-      if (k === "neighbours" && Array.isArray(v)) v = v.map((n) => n.dir + ":" + n.robot + (n.holding ? "[" + n.holding + "]" : "") + (n.busy ? " busy" : "") + (n.op ? " " + n.op : "") + (n.role ? "/" + n.role : "")).join("; ");
+      if (k === "neighbours" && Array.isArray(v)) v = v.map((n) => n.dir + ":" + n.robot + (n.holding ? "[" + itemText(n.holding) + "]" : "") + (n.busy ? " busy" : "") + (n.op ? " " + n.op : "") + (n.role ? "/" + n.role : "")).join("; ");
       html += "<tr><td>" + esc(k) + '</td><td class="mono">' + esc(typeof v === "string" ? v : JSON.stringify(v)) + "</td></tr>";
     }
     html += "</table>";
     if (Array.isArray(ob.mask)) {
       const taken = act ? (act[id] || 0) : 0;
-      html += '<div class="mask-legend">mask m<sub>t</sub> (O-MASK): ' + ob.mask.filter(Boolean).length + " of " + ob.mask.length +
-        " legal; green = legal, outlined = applied action; rows: idle, deliver, 32 pick, 8 handoff, 8 receive, 64 support</div><div class=\"mask\">" +
-        ob.mask.map((on, a) => '<span class="' + (on ? "on" : "") + (a === taken ? " taken" : "") + '" title="' + esc(slotLabel(a, ob)) + (on ? " (legal)" : "") + '"></span>').join("") + "</div>";
+      const groups = [["idle · deliver", 0, 2], ["pick slots", 2, 34], ["handoff N…NW", 34, 42], ["receive N…NW", 42, 50], ["support slots", 50, ob.mask.length]];
+      html += '<div class="mask-legend">mask m<sub>t</sub> (O-MASK, O-ACTION-ENCODING): ' + ob.mask.filter(Boolean).length + " of " + ob.mask.length +
+        " legal · green legal, outlined = the applied action · hover a slot</div>";
+      for (const [name, lo, hi] of groups) {
+        html += '<div class="mask-group"><span class="hint">' + name + " (" + lo + "–" + (hi - 1) + ')</span><div class="mask">';
+        for (let a = lo; a < hi; a++) html += '<span class="' + (ob.mask[a] ? "on" : "") + (a === taken ? " taken" : "") + '" title="' + esc(slotLabel(a, ob)) + (ob.mask[a] ? " (legal)" : "") + '"></span>';
+        html += "</div></div>";
+      }
     }
     return html;
   }
