@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 from typing import Any, Mapping
 
-from agspec.viewer.encode import EncodeError, TraceData, encode, trace_data
+from agspec.viewer.encode import TraceData, encode, trace_data
 from agspec.viewer.record import record
 from agspec.trace.write import TraceWriter
 

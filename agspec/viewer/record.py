@@ -18,7 +18,7 @@ reads the private reference.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 from agspec.trace.write import TraceWriter
 
