@@ -1,0 +1,192 @@
+"""PettingZoo ParallelEnv over the reference interpreter (spec/12-adapters.md, A-PZ-*).
+
+One agent per robot, named by its robot id ``"i,j"`` (R-IDS) in row-major order.  Each agent sees
+``{"observation": A-OBS-VECTOR, "action_mask": O-MASK as int8}`` (PettingZoo's action-mask
+convention); the mask is also in its info.  Actions are the 114 integers of O-ACTION-ENCODING; an
+illegal action is executed as idle and counted, as the interpreter does (R-ACTION-VALIDATION).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from agspec.interp.observe import N_ACTIONS
+from agspec.interp.state import cell_id
+from agspec.interp.tick import Simulator
+from agspec.marl.encoding import OBS_DIM, PublicInfo, encode_observation, encode_state, mask_vector, state_dim
+from agspec.marl.render import render_text
+from agspec.marl.rewards import delivered_value
+
+
+class AdapterError(ValueError):
+    """A bad scenario, instance or option given to an adapter (message names what and where)."""
+
+
+def load_instance(scenario: str | Path | Mapping[str, Any], index: int | None = None,
+                  search_paths: tuple[str, ...] = ()) -> dict[str, Any]:
+    """A-PZ-INSTANCE: an instance IR from a dict, an instance ``.json`` file, or a scenario name/file + index."""
+    if isinstance(scenario, Mapping):
+        if scenario.get("kind") != "instance":
+            raise AdapterError("an instance given as a mapping must be an instance IR (kind: instance)")
+        return dict(scenario)
+    from agspec.catalogue import load_scenario_bundle
+    from agspec.ir.instance import make_instance
+
+    target = str(scenario)
+    path = Path(target)
+    if path.suffix.lower() == ".json" and path.is_file():
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise AdapterError(f"{target}: cannot read: {exc}") from None
+        if isinstance(data, dict) and data.get("kind") == "instance":
+            if index is not None:
+                raise AdapterError(f"{target} is an instance; it takes no index")
+            return data
+    try:
+        bundle = load_scenario_bundle(target, search_paths)
+        return make_instance(*bundle, index=0 if index is None else int(index))
+    except Exception as exc:  # CatalogueError, InvalidDocumentError, InstanceError: all carry a message
+        raise AdapterError(str(exc)) from None
+
+
+class AssemblyGridParallelEnv(ParallelEnv):
+    """AssemblyGrid v1 as a PettingZoo ParallelEnv (A-PZ-ENV)."""
+
+    metadata = {"name": "assemblygrid_v1", "render_modes": ["ansi", "human"], "is_parallelizable": True, "render_fps": 4}
+
+    def __init__(self, scenario: str | Path | Mapping[str, Any], index: int | None = None, *,
+                 render_mode: str | None = None, max_cycles: int | None = None,
+                 search_paths: tuple[str, ...] = ()):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise AdapterError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self._scenario, self._search_paths = scenario, search_paths
+        self.render_mode = render_mode
+        self.max_cycles = max_cycles
+        self._set_instance(load_instance(scenario, index, search_paths))
+
+    # ------------------------------------------------------------------ instance and spaces
+
+    def _set_instance(self, instance: dict[str, Any]) -> None:
+        self.instance = instance
+        self.sim = Simulator(instance)
+        self.public = PublicInfo.of(self.sim.model)
+        agents = self.sim.agents()
+        if getattr(self, "possible_agents", None) not in (None, agents):
+            # spaces are per agent and must stay the same objects (A-PZ-SPACES)
+            raise AdapterError("a new instance must keep the grid size of the environment's scenario")
+        self.possible_agents = agents
+        self.agents = []
+        self.state_space = spaces.Box(0.0, 1.0, (state_dim(self.sim.model),), np.float32)
+        self.last_events: list[dict[str, Any]] = []
+
+    @functools.lru_cache(maxsize=None)
+    def observation_space(self, agent: str) -> spaces.Space:
+        return spaces.Dict({
+            "observation": spaces.Box(0.0, 1.0, (OBS_DIM,), np.float32),
+            "action_mask": spaces.Box(0, 1, (N_ACTIONS,), np.int8),
+        })
+
+    @functools.lru_cache(maxsize=None)
+    def action_space(self, agent: str) -> spaces.Space:
+        return spaces.Discrete(N_ACTIONS)
+
+    # ------------------------------------------------------------------ episode
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        """A-PZ-RESET: ``options={"instance": index | instance IR | path}`` changes the instance.
+
+        ``seed`` is the execution seed (I-SEEDS; v1 draws nothing from it, so it only enters the
+        record) and seeds the agents' action spaces, as PettingZoo's seeding convention expects.
+        """
+        options = options or {}
+        if "instance" in options:
+            choice = options["instance"]
+            if isinstance(choice, (int, np.integer)) and not isinstance(choice, bool):
+                self._set_instance(load_instance(self._scenario, int(choice), self._search_paths))
+            elif isinstance(choice, (str, Path, Mapping)):
+                self._set_instance(load_instance(choice, None, self._search_paths))
+            else:
+                raise AdapterError(f"options['instance'] must be an index, an instance IR or a path, got {choice!r}")
+        if seed is not None:
+            for k, agent in enumerate(self.possible_agents):
+                self.action_space(agent).seed(int(seed) + k)
+        self.sim.reset(seed)
+        self.agents = list(self.possible_agents)
+        self.last_events = list(self.sim.reset_events)
+        self._cycles = 0
+        obs = self._observations()
+        return obs, {a: {"action_mask": obs[a]["action_mask"]} for a in self.agents}
+
+    def _observations(self) -> dict[str, dict[str, np.ndarray]]:
+        out = {}
+        for robot, o in self.sim.observe().items():
+            out[robot] = {"observation": encode_observation(o, self.public), "action_mask": mask_vector(o["mask"])}
+        return out
+
+    def supporting(self) -> dict[str, bool]:
+        """Which robots hold a pending support now (the c_sup input of A-REWARD-MILESTONE)."""
+        return {cell_id(c): r.supports is not None for c, r in self.sim.state.robots.items()}
+
+    def step(self, actions: Mapping[str, Any]):
+        """A-PZ-STEP: one decision epoch; agents missing from ``actions`` idle."""
+        if not self.agents:
+            raise AdapterError("step() after the episode ended; call reset()")
+        unknown = [a for a in actions if a not in self.possible_agents]
+        if unknown:
+            raise AdapterError(f"unknown agent(s) {unknown}; agents are robot ids such as {self.possible_agents[0]!r}")
+        joint = {}
+        for agent, value in actions.items():
+            try:
+                joint[agent] = int(np.asarray(value).item())
+            except (TypeError, ValueError):
+                raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
+        self.supporting_before = self.supporting()
+        result = self.sim.step(joint)
+        self.last_events = result.events
+        self._cycles += 1
+        values = {p.pid: p.value for p in self.sim.state.products}
+        team = delivered_value(result.events, values)  # A-REWARD-SPARSE
+        truncated = result.truncated or (self.max_cycles is not None and self._cycles >= self.max_cycles
+                                         and not result.terminated)
+        agents = self.agents
+        obs = self._observations()
+        rewards = {a: team for a in agents}
+        terms = {a: bool(result.terminated) for a in agents}
+        truncs = {a: bool(truncated) for a in agents}
+        infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": result.applied[a]} for a in agents}
+        if result.terminated or truncated:
+            self.agents = []
+        return obs, rewards, terms, truncs, infos
+
+    def state(self) -> np.ndarray:
+        """A-STATE-VECTOR: the privileged global state (centralized training only)."""
+        return encode_state(self.sim.state, self.sim.model)
+
+    def render(self) -> str | None:
+        if self.render_mode is None:
+            return None
+        text = render_text(self.sim.state, self.sim.model)
+        if self.render_mode == "human":
+            print(text)
+            return None
+        return text
+
+    def close(self) -> None:
+        pass
+
+    def final_metrics(self) -> dict[str, Any]:
+        """The benchmark measures of the episode so far (chapter 7): what evaluation reports."""
+        return self.sim.final_metrics()
+
+
+def parallel_env(scenario: str | Path | Mapping[str, Any], index: int | None = None, **kwargs: Any) -> AssemblyGridParallelEnv:
+    """``agspec.pettingzoo.parallel_env("coalition-medium", index=1000)`` (A-PZ-ENV)."""
+    return AssemblyGridParallelEnv(scenario, index, **kwargs)
