@@ -283,9 +283,9 @@ def make_instance(
     generation_seed: int | None = None,
     execution_seed: int | None = None,
 ) -> dict[str, Any]:
-    """Build the self-contained instance IR (I-INSTANCE).
+    """Build the self-contained instance IR (S-INSTANCE).
 
-    Seeds (I-SEEDS): suite index k gives generation = generation_seed_base + k and
+    Seeds (S-SEEDS): suite index k gives generation = generation_seed_base + k and
     execution = execution_seed_base + k; explicit seeds override. With only an explicit
     generation seed the execution seed defaults to it (the original's single-``seed`` rule).
     """

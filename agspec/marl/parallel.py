@@ -31,7 +31,7 @@ class AdapterError(ValueError):
 
 def load_instance(scenario: str | Path | Mapping[str, Any], index: int | None = None,
                   search_paths: tuple[str, ...] = ()) -> dict[str, Any]:
-    """A-PZ-INSTANCE: an instance IR from a dict, an instance ``.json`` file, or a scenario name/file + index."""
+    """A-PZ-ENV: an instance IR from a dict, an instance ``.json`` file, or a scenario name/file + index."""
     if isinstance(scenario, Mapping):
         if scenario.get("kind") != "instance":
             raise AdapterError("an instance given as a mapping must be an instance IR (kind: instance)")
@@ -103,7 +103,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
         """A-PZ-RESET: ``options={"instance": index | instance IR | path}`` changes the instance.
 
-        ``seed`` is the execution seed (I-SEEDS; v1 draws nothing from it, so it only enters the
+        ``seed`` is the execution seed (S-SEEDS; v1 draws nothing from it, so it only enters the
         record) and seeds the agents' action spaces, as PettingZoo's seeding convention expects.
         """
         options = options or {}
