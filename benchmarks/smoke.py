@@ -19,6 +19,7 @@ QUICK = [
     ["bench_evaluate.py", "--quick", "-j", "2"],
     ["bench_validate.py", "--runs", "1"],
     ["bench_conform.py", "--quick"],
+    ["bench_marl.py", "--steps", "20", "--scenario", "coalition-medium"],
 ]
 
 if __name__ == "__main__":
