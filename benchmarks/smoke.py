@@ -19,6 +19,8 @@ QUICK = [
     ["bench_evaluate.py", "--quick", "-j", "2"],
     ["bench_validate.py", "--runs", "1"],
     ["bench_conform.py", "--quick"],
+    ["bench_kstar_visited.py", "--indices", "1000", "--ticks", "30", "--scenario", "coalition-medium",
+     "--controller", "greedy"],
     ["bench_marl.py", "--steps", "20", "--scenario", "coalition-medium"],
 ]
 
