@@ -111,6 +111,23 @@ def test_encoding_round_trip_equals_every_state_and_observation():
     assert [canon(s) for s in decode_states(again)] == [canon(s) for s in decoded]
 
 
+def test_kstar_series_is_the_reference_capacity_while_states_match():
+    """K*(s_t) per tick (M-CAPACITY): its mean over the epochs is the footer's capacity_mean; a
+    tampered state ends the series there (the page then shows the episode mean instead)."""
+    records = record_reference("coalition-medium", 120)
+    doc = encode(trace_data(records))
+    ks = doc["kstar"]
+    assert len(ks) == 121 and max(ks) >= 2
+    assert sum(ks[:120]) / 120 == pytest.approx(records[-1]["metrics"]["capacity_mean"])
+    tampered = json.loads(json.dumps(records))
+    ticks = [r for r in tampered if r["type"] == "tick"]
+    ticks[49]["state"]["robots"]["0,0"]["busy_until"] += 7  # the record of tick 49 holds s_50
+    assert encode(trace_data(tampered))["kstar"] == ks[:50]
+    foreign = json.loads(json.dumps(records))
+    del foreign[0]["instance"]["realization"]  # not an instance the reference can load
+    assert encode(trace_data([foreign[0]]))["kstar"] == []
+
+
 def test_48_robots_400_ticks_stay_under_5_mb(tmp_path: Path):
     trace = write_trace(record_reference("concurrency-hard", 400), tmp_path / "ch.jsonl")
     code, out = render(str(trace), "-o", str(tmp_path / "ch.html"))
@@ -316,6 +333,8 @@ def test_browser_shows_the_active_coalition_and_counters(browser, scenario: str,
         assert shown == truth
         assert all(shown[a["id"]] == set(a["members"]) for a in coalitions(st))
         assert page.text("#coalitions") == str(len(coalitions(st)))
+        kstar = embedded(tmp_path / f"{scenario}.html")["replay"]["kstar"]
+        assert page.text("#kstar-label") == "K*" and page.text("#kstar") == str(kstar[t])
         # the page rebuilds the same state as the trace (JS decoder = Python decoder); JS numbers come
         # back without their int/float distinction, so compare values, not texts
         assert page.page.evaluate(f"window.agspecViewer.stateAt({t})") == st

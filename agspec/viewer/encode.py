@@ -22,6 +22,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping, Sequence
 
+from agspec.viewer.capacity import capacity_series
+
 REPLAY_FORMAT = "agspec-replay/1"
 DEFAULT_KEYFRAME = 25
 
@@ -228,6 +230,8 @@ def encode(data: TraceData, *, keyframe: int = DEFAULT_KEYFRAME, title: str | No
         "actions": data.actions,
         "observations": delta_encode(data.observations, keyframe) if data.observations else None,
         "footer": data.footer,
+        # K*(s_t) while the reference reproduces the recorded states (agspec/viewer/capacity.py)
+        "kstar": capacity_series(h, data.states, data.actions),
     }
     return doc
 

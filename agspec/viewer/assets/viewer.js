@@ -413,8 +413,9 @@
       document.getElementById("subtitle").textContent = [L.scenario, L.grid.rows + "×" + L.grid.cols + " " + (L.grid.topology || ""),
         "profile " + (L.profile.id || "?") + (L.profile.variant ? "/" + L.profile.variant : ""), "implementation " + impl,
         src.controller && src.controller.name ? "controller " + src.controller.name : null, doc.footer ? null : "no footer: truncated trace"].filter(Boolean).join(" · ");
-      const kstar = doc.footer && doc.footer.metrics && doc.footer.metrics.capacity_mean;
-      if (kstar !== undefined && kstar !== null) { document.getElementById("kstar-box").hidden = false; document.getElementById("kstar").textContent = fmt(kstar, 2); }
+      const kmean = doc.footer && doc.footer.metrics && doc.footer.metrics.capacity_mean;
+      this.kmean = (kmean !== undefined && kmean !== null) ? kmean : null;
+      document.getElementById("kstar-box").hidden = !((doc.kstar && doc.kstar.length) || this.kmean !== null);
       const scrub = document.getElementById("scrub");
       scrub.max = String(this.T);
       document.getElementById("tick-of").textContent = "/ " + this.T;
@@ -466,6 +467,10 @@
       document.getElementById("throughput").textContent = t > 0 ? fmt(st.delivered / t, 3) : "–";
       const n = Object.keys(st.robots || {}).length;
       document.getElementById("occupancy").textContent = n ? fmt(pane.busy / n, 2) : "–";
+      const ks = pane.doc.kstar || [];
+      // K*(s_t) where the reference reproduced s_t (capacity.py); otherwise the episode mean from the footer
+      document.getElementById("kstar-label").textContent = t < ks.length ? "K*" : "K* mean";
+      document.getElementById("kstar").textContent = t < ks.length ? String(ks[t]) : (this.kmean !== null ? fmt(this.kmean, 2) : "–");
       document.getElementById("coalitions").textContent = String((st.activities || []).filter((a) => a.kind === "operation" && (a.members || []).length >= 2).length);
       document.getElementById("activities").innerHTML = activitiesHtml(st);
       document.getElementById("proposals").innerHTML = proposalsHtml(st);
