@@ -8,7 +8,6 @@ illegal action is executed as idle and counted, as the interpreter does (R-ACTIO
 
 from __future__ import annotations
 
-import functools
 import json
 from pathlib import Path
 from typing import Any, Mapping
@@ -84,19 +83,20 @@ class AssemblyGridParallelEnv(ParallelEnv):
             raise AdapterError("a new instance must keep the grid size of the environment's scenario")
         self.possible_agents = agents
         self.agents = []
+        if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
+            self._observation_spaces = {a: spaces.Dict({
+                "observation": spaces.Box(0.0, 1.0, (OBS_DIM,), np.float32),
+                "action_mask": spaces.Box(0, 1, (N_ACTIONS,), np.int8),
+            }) for a in agents}
+            self._action_spaces = {a: spaces.Discrete(N_ACTIONS) for a in agents}
         self.state_space = spaces.Box(0.0, 1.0, (state_dim(self.sim.model),), np.float32)
         self.last_events: list[dict[str, Any]] = []
 
-    @functools.lru_cache(maxsize=None)
     def observation_space(self, agent: str) -> spaces.Space:
-        return spaces.Dict({
-            "observation": spaces.Box(0.0, 1.0, (OBS_DIM,), np.float32),
-            "action_mask": spaces.Box(0, 1, (N_ACTIONS,), np.int8),
-        })
+        return self._observation_spaces[agent]
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Space:
-        return spaces.Discrete(N_ACTIONS)
+        return self._action_spaces[agent]
 
     # ------------------------------------------------------------------ episode
 
