@@ -50,6 +50,10 @@ class InvalidDocumentError(CatalogueError):
     """A scenario, recipe or profile document has errors (message = rendered diagnostics)."""
 
 
+class InvalidInstanceError(ValueError):
+    """An instance IR file violates its schema, or no instance can be generated (invalid input)."""
+
+
 # --------------------------------------------------------------------------- indices
 
 
@@ -114,6 +118,45 @@ def load_scenario_bundle(name_or_path: str | Path, search_paths: Sequence[str | 
         recipes[rid] = _dependency(bound, doc, "recipe", rid, check_document)
     profile = _dependency(bound, doc, "profile", scenario["profile"]["id"], check_document)
     return scenario, recipes, profile
+
+
+def read_instance_file(target: str | Path) -> dict[str, Any] | None:
+    """The instance IR held by a ``.json`` file (schema-checked, S-INSTANCE), or None when ``target``
+    is not an instance file.  Unreadable files raise CatalogueError, schema violations
+    InvalidInstanceError (message located by JSON Pointer)."""
+    path = Path(target)
+    if path.suffix != ".json" or not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CatalogueError(f"{target}: cannot read instance IR: {exc}") from None
+    if not (isinstance(data, dict) and data.get("kind") == "instance"):
+        return None
+    from agspec.ir.schemas import validate_schema
+
+    problems = validate_schema(data)
+    if problems:
+        first = problems[0]
+        raise InvalidInstanceError(f"{target}{first.pointer or ''}: error[{first.code}]: {first.message}")
+    return data
+
+
+def load_instance(target: str | Path, index: int | None = None, seed: int | None = None,
+                  search_paths: Sequence[str | Path] = ()) -> dict[str, Any]:
+    """An instance IR from an instance ``.json`` file, or realized from a scenario name or file at
+    suite ``index`` (default 0) or generation ``seed`` (S-SEEDS).  Raises CatalogueError (not found,
+    unreadable, invalid scenario) or InvalidInstanceError (bad instance file, no instance possible)."""
+    inst = read_instance_file(target)
+    if inst is not None:
+        return inst
+    scenario, recipes, profile = load_scenario_bundle(target, search_paths)
+    if index is None and seed is None:
+        index = 0
+    try:
+        return make_instance(scenario, recipes, profile, index=index, generation_seed=seed)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InvalidInstanceError(f"{target}: cannot generate an instance: {exc}") from None
 
 
 def _check(doc: Any, resolver: Any, check_document: Callable[..., list]) -> None:

@@ -125,3 +125,28 @@ def test_catalogue_verify_and_update(tmp_path, monkeypatch):
     assert "catalogue drift" in res.stderr and "scenario `coalition-easy` changed" in res.stderr
     assert run(instance_cmds.catalogue, "lock", "--lock", str(lock)).exit_code == 0
     assert run(instance_cmds.catalogue, "verify", "--lock", str(lock)).exit_code == 0
+
+
+def test_run_rejects_bad_instance_files_with_location_and_exit_code(tmp_path):
+    """agspec.catalogue.load_instance through `agspec run` (F-EXIT-CODES): unreadable -> 2,
+    schema-invalid -> 1 with the JSON Pointer, unknown scenario -> 2; a valid file runs."""
+    from agspec.cli.main import cli
+
+    def run_cli(*args):
+        return CliRunner().invoke(cli, ["run", *args, "--horizon", "3", "--format", "json"])
+
+    inst = make_instance(*bundle("flow-easy"), index=0)
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(inst), encoding="utf-8")
+    res = run_cli(str(good))
+    assert res.exit_code == 0 and json.loads(res.stdout)["instance"] == inst["id"]
+    broken = tmp_path / "broken.json"
+    broken.write_text("{not json", encoding="utf-8")
+    res = run_cli(str(broken))
+    assert res.exit_code == 2 and "cannot read instance IR" in res.stderr
+    invalid = tmp_path / "invalid.json"
+    invalid.write_text(json.dumps({**inst, "seeds": "none"}), encoding="utf-8")
+    res = run_cli(str(invalid))
+    assert res.exit_code == 1 and f"{invalid}/seeds" in res.stderr and "error[AG2" in res.stderr
+    res = run_cli("no-such-scenario")
+    assert res.exit_code == 2 and "unknown scenario" in res.stderr

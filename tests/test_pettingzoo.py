@@ -303,3 +303,7 @@ def test_instance_file_and_index_conflict(tmp_path):
     assert parallel_env(str(path)).instance == inst
     with pytest.raises(AdapterError, match="takes no index"):
         parallel_env(str(path), index=3)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**inst, "seeds": "none"}))
+    with pytest.raises(AdapterError, match="bad.json/seeds: error\\[AG2"):  # schema-checked (S-INSTANCE)
+        parallel_env(str(bad))

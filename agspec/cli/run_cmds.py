@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -55,34 +54,16 @@ def _fmt(value: Any, spec: str) -> str:
 
 
 def load_instance(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
-    """An instance IR from an instance .json file, or generated from a scenario name or file."""
-    from agspec.catalogue import CatalogueError, load_scenario_bundle
-    from agspec.ir.instance import make_instance
+    """agspec.catalogue.load_instance with its errors as CLI failures (F-EXIT-CODES)."""
+    from agspec.catalogue import CatalogueError, InvalidInstanceError
+    from agspec.catalogue import load_instance as load
 
-    path = Path(target)
-    if path.suffix == ".json" and path.is_file():
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            fail(f"{target}: cannot read instance IR: {exc}")
-        if isinstance(data, dict) and data.get("kind") == "instance":
-            from agspec.ir.schemas import validate_schema
-
-            problems = validate_schema(data)
-            if problems:
-                first = problems[0]
-                fail(f"{target}{first.pointer or ''}: error[{first.code}]: {first.message}", EXIT_INVALID)
-            return data
     try:
-        scenario, recipes, profile = load_scenario_bundle(target)
+        return load(target, index, seed)
+    except InvalidInstanceError as exc:
+        fail(str(exc), EXIT_INVALID)
     except CatalogueError as exc:
         fail(str(exc))
-    if index is None and seed is None:
-        index = 0
-    try:
-        return make_instance(scenario, recipes, profile, index=index, generation_seed=seed)
-    except (ValueError, KeyError, TypeError) as exc:
-        fail(f"{target}: cannot generate an instance: {exc}", EXIT_INVALID)
 
 
 @click.command("run")

@@ -17,7 +17,7 @@ from gymnasium import spaces
 from agspec.interp.observe import N_ACTIONS
 from agspec.marl.encoding import OBS_DIM
 from agspec.marl.parallel import AdapterError, AssemblyGridParallelEnv
-from agspec.marl.rewards import SUPPORT_CREDIT, MilestoneTerms, support_credit
+from agspec.marl.rewards import milestone_rewards
 
 REWARDS = ("sparse-delivery-v1", "coalition_milestone_v1")
 
@@ -72,8 +72,8 @@ class CentralizedEnv(gym.Env):
         if self.reward_name == "sparse-delivery-v1":
             reward = rewards[self.robots[0]]
         else:  # the team reward with the agent-mean support credit (the paper's shared form)
-            credit = support_credit(self.par.supporting_before, self.par.supporting())
-            reward = MilestoneTerms.of(self.par.last_events).team_reward() + SUPPORT_CREDIT * sum(credit.values()) / len(credit)
+            _, _, shared = milestone_rewards(self.par.last_events, self.par.supporting_before, self.par.supporting(), "mean")
+            reward = shared[self.robots[0]]
         obs = self._stack(per_agent)
         first = self.robots[0]
         return obs, float(reward), bool(terms[first]), bool(truncs[first]), {"action_mask": obs["action_mask"]}

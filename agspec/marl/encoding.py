@@ -154,24 +154,24 @@ def mask_vector(mask: list[bool]) -> np.ndarray:
 # --------------------------------------------------------------------------- privileged state
 
 
-def _vocabulary(model: Model) -> tuple[list[str], list[str]]:
+def _vocabulary(model: Model) -> tuple[list[str], list[str], list[str]]:
+    """The instance's operation ids, tokens and raw tokens, sorted: the state vector's slots."""
     ops = sorted({op.id for r in model.recipes.values() for op in r.operations})
     tokens = sorted({tok for r in model.recipes.values() for tok in (*r.raw, *(op.output for op in r.operations))})
-    return ops, tokens
+    raws = sorted({tok for r in model.recipes.values() for tok in r.raw})
+    return ops, tokens, raws
 
 
 def state_dim(model: Model) -> int:
     """A-STATE-VECTOR length: 19 per robot, one slot per WIP place, 6 global values, shelf stock."""
-    ops, tokens = _vocabulary(model)
-    raws = sorted({tok for r in model.recipes.values() for tok in r.raw})
+    ops, tokens, raws = _vocabulary(model)
     product = PRODUCT_FIXED_DIM + len(ops) + 3 * len(tokens)
     return ROBOT_STATE_DIM * model.rows * model.cols + model.wip_cap * product + GLOBAL_STATE_DIM + model.rows * len(raws)
 
 
 def encode_state(state: State, model: Model) -> np.ndarray:
     """A-STATE-VECTOR: the privileged global state (for centralized critics, never for actors)."""
-    ops, tokens = _vocabulary(model)
-    raws = sorted({tok for r in model.recipes.values() for tok in r.raw})
+    ops, tokens, raws = _vocabulary(model)
     out = np.zeros(state_dim(model), dtype=np.float32)
     t = state.t
     span_r, span_c = max(model.rows - 1, 1), max(model.cols - 1, 1)
@@ -203,7 +203,6 @@ def encode_state(state: State, model: Model) -> np.ndarray:
         out[at + 18] = _saturate(r.team_participations)
         at += ROBOT_STATE_DIM
     open_products = [p for p in state.products if not p.delivered][: model.wip_cap]
-    held = {item: cell for item, cell in state.item_holder.items()}
     product_dim = PRODUCT_FIXED_DIM + len(ops) + 3 * len(tokens)
     for slot in range(model.wip_cap):
         if slot < len(open_products):
@@ -220,7 +219,7 @@ def encode_state(state: State, model: Model) -> np.ndarray:
             for k, tok in enumerate(tokens):
                 base = at + 6 + len(ops) + 3 * k
                 out[base] = float(tok in p.raw_taken)
-                holder = held.get((p.pid, tok))
+                holder = state.item_holder.get((p.pid, tok))
                 if holder is not None:
                     out[base + 1] = 0.5 + 0.5 * _frac(holder[0], span_r)
                     out[base + 2] = 0.5 + 0.5 * _frac(holder[1], span_c)

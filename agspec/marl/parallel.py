@@ -8,7 +8,6 @@ illegal action is executed as idle and counted, as the interpreter does (R-ACTIO
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -31,28 +30,18 @@ class AdapterError(ValueError):
 def load_instance(scenario: str | Path | Mapping[str, Any], index: int | None = None,
                   search_paths: tuple[str, ...] = ()) -> dict[str, Any]:
     """A-PZ-ENV: an instance IR from a dict, an instance ``.json`` file, or a scenario name/file + index."""
+    from agspec.catalogue import CatalogueError, InvalidInstanceError, read_instance_file
+    from agspec.catalogue import load_instance as load
+
     if isinstance(scenario, Mapping):
         if scenario.get("kind") != "instance":
             raise AdapterError("an instance given as a mapping must be an instance IR (kind: instance)")
         return dict(scenario)
-    from agspec.catalogue import load_scenario_bundle
-    from agspec.ir.instance import make_instance
-
-    target = str(scenario)
-    path = Path(target)
-    if path.suffix.lower() == ".json" and path.is_file():
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise AdapterError(f"{target}: cannot read: {exc}") from None
-        if isinstance(data, dict) and data.get("kind") == "instance":
-            if index is not None:
-                raise AdapterError(f"{target} is an instance; it takes no index")
-            return data
     try:
-        bundle = load_scenario_bundle(target, search_paths)
-        return make_instance(*bundle, index=0 if index is None else int(index))
-    except Exception as exc:  # CatalogueError, InvalidDocumentError, InstanceError: all carry a message
+        if index is not None and read_instance_file(scenario) is not None:
+            raise AdapterError(f"{scenario} is an instance; it takes no index")
+        return load(scenario, index, None, search_paths)
+    except (CatalogueError, InvalidInstanceError) as exc:
         raise AdapterError(str(exc)) from None
 
 
@@ -152,8 +141,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         result = self.sim.step(joint)
         self.last_events = result.events
         self._cycles += 1
-        values = {p.pid: p.value for p in self.sim.state.products}
-        team = delivered_value(result.events, values)  # A-REWARD-SPARSE
+        team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         truncated = result.truncated or (self.max_cycles is not None and self._cycles >= self.max_cycles
                                          and not result.terminated)
         agents = self.agents

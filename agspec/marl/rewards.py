@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, Sequence
 
 # A-REWARD-MILESTONE: the paper's team reward coefficients (training-reward equation).
 MILESTONE_COEFFICIENTS = {
@@ -71,6 +71,22 @@ def support_credit(before: Mapping[str, bool], after: Mapping[str, bool]) -> dic
     return {u: int(not before[u] and after[u]) for u in before}
 
 
-def delivered_value(events: Iterable[Mapping[str, Any]], values: Mapping[int, float]) -> float:
-    """A-REWARD-SPARSE: the value of the products delivered in this step (1.0 each on the catalogue)."""
-    return float(sum(values.get(int(e["product"]), 1.0) for e in events if e["type"] == "delivered"))
+def milestone_rewards(events: Iterable[Mapping[str, Any]], before: Mapping[str, bool], after: Mapping[str, bool],
+                      credit_mode: str) -> tuple[MilestoneTerms, dict[str, int], dict[str, float]]:
+    """A-REWARD-MILESTONE for one step: the terms, c_sup per agent, and each agent's reward with the
+    support credit per agent (``"agent"``), as the agents' mean (``"mean"``) or none (``"none"``)."""
+    terms = MilestoneTerms.of(events)
+    team = terms.team_reward()
+    credit = support_credit(before, after)
+    if credit_mode == "agent":
+        bonus = {u: float(c) for u, c in credit.items()}
+    else:
+        shared = sum(credit.values()) / max(len(credit), 1) if credit_mode == "mean" else 0.0
+        bonus = dict.fromkeys(credit, shared)
+    return terms, credit, {u: team + SUPPORT_CREDIT * bonus[u] for u in credit}
+
+
+def delivered_value(events: Iterable[Mapping[str, Any]], products: Sequence[Any]) -> float:
+    """A-REWARD-SPARSE: the value of the products delivered in this step (1.0 each on the catalogue);
+    ``products`` is the state's product list, indexed by product id."""
+    return float(sum(products[int(e["product"])].value for e in events if e["type"] == "delivered"))

@@ -11,7 +11,7 @@ from typing import Any, Mapping
 
 from pettingzoo.utils import BaseParallelWrapper
 
-from agspec.marl.rewards import SUPPORT_CREDIT, MilestoneTerms, support_credit
+from agspec.marl.rewards import milestone_rewards
 
 CREDIT_MODES = ("agent", "mean", "none")
 
@@ -35,20 +35,11 @@ class CoalitionMilestoneV1(BaseParallelWrapper):
     def step(self, actions: Mapping[str, Any]):
         obs, _env_rewards, terms, truncs, infos = self.env.step(actions)
         base = self.env.unwrapped
-        milestone = MilestoneTerms.of(base.last_events)
-        team = milestone.team_reward()
-        credit = support_credit(base.supporting_before, base.supporting())
-        mean_credit = sum(credit.values()) / max(len(credit), 1)
-        rewards = {}
+        milestone, credit, rewards = milestone_rewards(base.last_events, base.supporting_before, base.supporting(),
+                                                       self.credit_mode)
         for agent in obs:
-            if self.credit_mode == "agent":
-                rewards[agent] = team + SUPPORT_CREDIT * credit[agent]
-            elif self.credit_mode == "mean":
-                rewards[agent] = team + SUPPORT_CREDIT * mean_credit
-            else:
-                rewards[agent] = team
             infos[agent] = {**infos[agent], "milestone": asdict(milestone), "support_credit": credit[agent]}
-        return obs, rewards, terms, truncs, infos
+        return obs, {agent: rewards[agent] for agent in obs}, terms, truncs, infos
 
 
 def coalition_milestone_v1(env: Any, support_credit: str = "agent") -> CoalitionMilestoneV1:

@@ -9,17 +9,12 @@ episode mean.  Never a guess.
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 from agspec.interp.metrics import capacity_snapshot
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
-
-
-def _canonical(value: Any) -> str:
-    return json.dumps(value, sort_keys=True, separators=(",", ":"))
-
+from agspec.trace.write import dumps as canonical  # the trace's own canonical JSON (F-TRACE)
 
 def capacity_series(header: dict[str, Any], states: list[dict[str, Any]], actions: list[dict[str, int]]) -> list[int]:
     """[K*(s_0), K*(s_1), …] for the leading ticks whose state the reference reproduces exactly."""
@@ -30,7 +25,7 @@ def capacity_series(header: dict[str, Any], states: list[dict[str, Any]], action
         return []
     series: list[int] = []
     for t, recorded in enumerate(states):
-        if _canonical(global_state(sim.state)) != _canonical(recorded):
+        if canonical(global_state(sim.state)) != canonical(recorded):
             break
         series.append(capacity_snapshot(sim.state, sim.model, sim.decision.candidates).k_star)
         if t < len(actions):
