@@ -17,7 +17,7 @@ from agspec.conform import invariants as inv
 from agspec.conform.invariants import INVARIANT_IDS, check_trace, parse_trace_text
 from agspec.evaluate import run_episode
 from agspec.ir.instance import make_instance
-from agspec.trace.write import TraceWriter
+from agspec.formats.trace import TraceWriter
 
 from conftest_ir import bundle
 

@@ -39,7 +39,7 @@ def record_reference(scenario: str, ticks: int, observations: bool = False, cont
     from agspec.catalogue import load_scenario_bundle
     from agspec.evaluate import run_episode
     from agspec.ir.instance import make_instance
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
 
     sc, recipes, profile = load_scenario_bundle(scenario)
     buf = io.StringIO()

@@ -46,14 +46,16 @@ from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 import rfc8785
 import yaml
-from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
-from agspec.resources import conformance_dir, schemas_dir
+from agspec.formats.actions import IDLE, IllegalAction, resolve
+from agspec.formats.jsonl import iter_lines
+from agspec.formats.pointer import MISSING, PointerError, escape, first_difference, show
+from agspec.formats.pointer import parse as parse_pointer
+from agspec.formats.pointer import resolve as resolve_pointer
+from agspec.formats.schemas import validator
+from agspec.resources import conformance_dir
 
-ACTION_LIMIT = 114  # O-ACTION-ENCODING: 0 .. 113
-DIRECTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
-IDLE, DELIVER, PICK0, HANDOFF0, RECEIVE0, OP0 = 0, 1, 2, 34, 42, 50
 CASE_GLOBS = ("*.yaml", "*.yml", "*.json")
 STATE_KEYS = ("t", "released", "delivered", "wip", "lost_releases", "robots", "products", "items", "shelves",
               "proposals", "activities")
@@ -183,7 +185,7 @@ def _compose(text: str, file: str) -> tuple[Any, dict[str, int]]:
                     raise SuiteError(Located(file, k.start_mark.line + 1, f"mapping key {key!r} is not a string"))
                 if key in out:
                     raise SuiteError(Located(file, k.start_mark.line + 1, f"duplicate key {key!r}"))
-                out[key] = conv(v, f"{ptr}/{_escape(key)}")
+                out[key] = conv(v, f"{ptr}/{escape(key)}")
             return out
         if isinstance(n, yaml.SequenceNode):
             return [conv(v, f"{ptr}/{i}") for i, v in enumerate(n.value)]
@@ -195,10 +197,6 @@ def _compose(text: str, file: str) -> tuple[Any, dict[str, int]]:
     return conv(node, ""), lines
 
 
-def _escape(token: str) -> str:
-    return token.replace("~", "~0").replace("/", "~1")
-
-
 def _line_for(lines: Mapping[str, int], pointer: str) -> int | None:
     """The line of ``pointer`` or of its closest located ancestor."""
     ptr = pointer
@@ -208,90 +206,6 @@ def _line_for(lines: Mapping[str, int], pointer: str) -> int | None:
         if not ptr:
             return None
         ptr = ptr.rsplit("/", 1)[0]
-
-
-# =============================================================================================
-# JSON Pointer and comparison
-
-
-class PointerError(ValueError):
-    pass
-
-
-_MISSING = object()
-
-
-def parse_pointer(pointer: str) -> list[str]:
-    """RFC 6901 tokens of ``pointer``; ``""`` is the whole document."""
-    if pointer == "":
-        return []
-    if not pointer.startswith("/"):
-        raise PointerError(f"JSON Pointer {pointer!r} must be empty or start with '/'")
-    tokens = pointer[1:].split("/")
-    for tok in tokens:
-        if "~" in tok.replace("~0", "").replace("~1", ""):
-            raise PointerError(f"JSON Pointer {pointer!r} has a bad escape (only ~0 and ~1)")
-    return [t.replace("~1", "/").replace("~0", "~") for t in tokens]
-
-
-def resolve_pointer(doc: Any, pointer: str) -> Any:
-    """The value at ``pointer`` in ``doc``, or ``_MISSING``."""
-    cur = doc
-    for tok in parse_pointer(pointer):
-        if isinstance(cur, Mapping):
-            if tok not in cur:
-                return _MISSING
-            cur = cur[tok]
-        elif isinstance(cur, (list, tuple)):
-            if not tok.isdigit() or (len(tok) > 1 and tok[0] == "0") or int(tok) >= len(cur):
-                return _MISSING
-            cur = cur[int(tok)]
-        else:
-            return _MISSING
-    return cur
-
-
-def _same_scalar(a: Any, b: Any) -> bool:
-    if isinstance(a, bool) or isinstance(b, bool):
-        return isinstance(a, bool) and isinstance(b, bool) and a == b
-    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
-        return a == b
-    return type(a) is type(b) and a == b
-
-
-def first_difference(expected: Any, actual: Any, pointer: str = "") -> tuple[str, Any, Any] | None:
-    """The first place (depth first, keys sorted) where ``actual`` differs from ``expected``."""
-    if isinstance(expected, Mapping) and isinstance(actual, Mapping):
-        for key in sorted(set(expected) | set(actual)):
-            sub = f"{pointer}/{_escape(str(key))}"
-            if key not in actual:
-                return (sub, expected[key], _MISSING)
-            if key not in expected:
-                return (sub, _MISSING, actual[key])
-            diff = first_difference(expected[key], actual[key], sub)
-            if diff:
-                return diff
-        return None
-    if isinstance(expected, (list, tuple)) and isinstance(actual, (list, tuple)):
-        for i, (e, a) in enumerate(zip(expected, actual)):
-            diff = first_difference(e, a, f"{pointer}/{i}")
-            if diff:
-                return diff
-        if len(expected) != len(actual):
-            i = min(len(expected), len(actual))
-            return (f"{pointer}/{i}", expected[i] if i < len(expected) else _MISSING,
-                    actual[i] if i < len(actual) else _MISSING)
-        return None
-    if isinstance(expected, (Mapping, list, tuple)) or isinstance(actual, (Mapping, list, tuple)):
-        return (pointer, expected, actual)
-    return None if _same_scalar(expected, actual) else (pointer, expected, actual)
-
-
-def _show(value: Any) -> str:
-    if value is _MISSING:
-        return "<absent>"
-    text = json.dumps(value, sort_keys=True, ensure_ascii=False)
-    return text if len(text) <= 160 else text[:157] + "..."
 
 
 def event_matches(pattern: Mapping[str, Any], event: Mapping[str, Any]) -> bool:
@@ -365,30 +279,30 @@ def mismatches(
 
         for pointer, want in exp.get("state", {}).items():
             got = resolve_pointer(state, pointer)
-            diff = first_difference(want, got, pointer) if got is not _MISSING else (pointer, want, _MISSING)
+            diff = first_difference(want, got, pointer=pointer) if got is not MISSING else (pointer, want, MISSING)
             if diff:
                 at, e, a = diff
-                add("state", at, e, a, f"state {at or '(whole state)'}: expected {_show(e)}, got {_show(a)}")
+                add("state", at, e, a, f"state {at or '(whole state)'}: expected {show(e)}, got {show(a)}")
         for pointer in exp.get("absent", []):
             got = resolve_pointer(state, pointer)
-            if got is not _MISSING:
-                add("absent", pointer, _MISSING, got, f"state {pointer}: expected absent, got {_show(got)}")
+            if got is not MISSING:
+                add("absent", pointer, MISSING, got, f"state {pointer}: expected absent, got {show(got)}")
         patterns = exp.get("events", [])
         for i in _match_events(patterns, events):
             near = [ev for ev in events if ev.get("type") == patterns[i].get("type")]
             add("event", "", patterns[i], near or list(events),
-                f"no event matches {_show(patterns[i])}; events of this type: {_show(near)}")
+                f"no event matches {show(patterns[i])}; events of this type: {show(near)}")
         for pattern in exp.get("no_events", []):
             hits = [ev for ev in events if event_matches(pattern, ev)]
             if hits:
-                add("no_event", "", pattern, hits, f"unexpected event {_show(hits[0])} (matches {_show(pattern)})")
+                add("no_event", "", pattern, hits, f"unexpected event {show(hits[0])} (matches {show(pattern)})")
         if observations is not None:
             for pointer, want in exp.get("observations", {}).items():
                 got = resolve_pointer(observations, pointer)
-                diff = first_difference(want, got, pointer) if got is not _MISSING else (pointer, want, _MISSING)
+                diff = first_difference(want, got, pointer=pointer) if got is not MISSING else (pointer, want, MISSING)
                 if diff:
                     at, e, a = diff
-                    add("observation", at, e, a, f"observation {at}: expected {_show(e)}, got {_show(a)}")
+                    add("observation", at, e, a, f"observation {at}: expected {show(e)}, got {show(a)}")
         if done is not None and "done" in exp and bool(exp["done"]) != bool(done):
             add("done", "", exp["done"], done, f"expected done={exp['done']}, got done={done}")
     return out
@@ -411,14 +325,8 @@ def check_expectations(
 # loading
 
 
-@lru_cache(maxsize=1)
-def case_validator() -> Draft202012Validator:
-    schema = json.loads((schemas_dir() / "case.schema.json").read_text(encoding="utf-8"))
-    return Draft202012Validator(schema)
-
-
 def _schema_problems(doc: Any, lines: Mapping[str, int], file: str) -> list[Located]:
-    errors = list(case_validator().iter_errors(doc))
+    errors = list(validator("case").iter_errors(doc))
     if not errors:
         return []
     # Report the most relevant error per top-level case (a list file) or the single best one.
@@ -434,15 +342,15 @@ def _schema_problems(doc: Any, lines: Mapping[str, int], file: str) -> list[Loca
             sub = best_match(err.context)
             if len(sub.absolute_path) <= len(err.absolute_path):
                 desc = err.schema.get("description") if isinstance(err.schema, Mapping) else None
-                message = f"{_show(err.instance)} matches none of the allowed forms" + (f" ({desc})" if desc else "")
+                message = f"{show(err.instance)} matches none of the allowed forms" + (f" ({desc})" if desc else "")
                 break
             err, message = sub, sub.message
         if err.validator == "pattern" and isinstance(err.schema, Mapping) and err.schema.get("description"):
-            message = f"{_show(err.instance)} is not {err.schema['description']}"
-        pointer = "".join(f"/{_escape(str(p))}" for p in err.absolute_path)
+            message = f"{show(err.instance)} is not {err.schema['description']}"
+        pointer = "".join(f"/{escape(str(p))}" for p in err.absolute_path)
         holder = resolve_pointer(doc, pointer)
         if isinstance(holder, Mapping) and isinstance(err.instance, str) and err.instance in holder:
-            pointer += f"/{_escape(err.instance)}"  # a bad key (propertyNames): point at the key itself
+            pointer += f"/{escape(err.instance)}"  # a bad key (propertyNames): point at the key itself
         field = pointer or "(top level)"
         out.append(Located(file, _line_for(lines, pointer), f"case schema: {field}: {message}"))
     return out
@@ -558,36 +466,6 @@ def _simulator(instance: Mapping[str, Any], seed: int | None, file: str, line: i
 # --------------------------------------------------------------------------- symbolic actions
 
 
-def resolve_action(value: Any, options: Any) -> int:
-    """One action as written in a script -> action integer, against one robot's option lists."""
-    if isinstance(value, bool):
-        raise ValueError(f"{value!r} is not an action")
-    if isinstance(value, int):
-        return value
-    if value == "idle":
-        return IDLE
-    if value == "deliver":
-        return DELIVER
-    if isinstance(value, Mapping) and len(value) == 1:
-        ((kind, arg),) = value.items()
-        if kind == "handoff":
-            return HANDOFF0 + DIRECTIONS.index(arg)
-        if kind == "receive":
-            return RECEIVE0 + DIRECTIONS.index(arg)
-        if kind == "support":
-            ids = [c.cid for c in options.operations]
-            if arg not in ids:
-                raise ValueError(f"candidate {arg!r} is not an operation option of this robot "
-                                 f"(options: {', '.join(ids) or 'none'})")
-            return OP0 + ids.index(arg)
-        if kind == "pick":
-            ids = [p["id"] for p in options.picks]
-            if arg not in ids:
-                raise ValueError(f"pick option {arg!r} is not offered to this robot (options: {', '.join(ids) or 'none'})")
-            return PICK0 + ids.index(arg)
-    raise ValueError(f"{value!r} is not an action")
-
-
 def _resolve_script(script: list, sim: Any, lines: Mapping[str, int], file: str) -> list[dict[str, int]]:
     from agspec.interp.state import cell_id
 
@@ -596,13 +474,14 @@ def _resolve_script(script: list, sim: Any, lines: Mapping[str, int], file: str)
     for t, joint in enumerate(script):
         resolved: dict[str, int] = {}
         for robot, value in joint.items():
-            line = _line_for(lines, f"/script/{t}/{_escape(robot)}")
+            line = _line_for(lines, f"/script/{t}/{escape(robot)}")
             if robot not in robots:
                 raise SuiteError(Located(file, line, f"script tick {t}: no robot {robot} on a "
                                                      f"{sim.model.rows}x{sim.model.cols} grid"))
             try:
-                a = resolve_action(value, sim.decision.options[robots[robot]])
-            except ValueError as exc:
+                options = sim.decision.options[robots[robot]]
+                a = resolve(value, [p["id"] for p in options.picks], [c.cid for c in options.operations])
+            except IllegalAction as exc:
                 raise SuiteError(Located(file, line, f"script tick {t}, robot {robot}: {exc}")) from None
             if a != IDLE:
                 resolved[robot] = a
@@ -618,22 +497,18 @@ def _resolve_script(script: list, sim: Any, lines: Mapping[str, int], file: str)
 def _read_trace(path: str, mtime: float) -> tuple[dict[str, Any], tuple[dict[str, Any], ...], str]:
     header, ticks = None, []
     digest = hashlib.sha256()
-    with open(path, encoding="utf-8") as fh:
-        for lineno, text in enumerate(fh, start=1):
-            if not text.strip():
-                continue
-            try:
-                rec = json.loads(text)
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"line {lineno}: not JSON: {exc}") from None
-            kind = rec.get("type") if isinstance(rec, dict) else None
-            if kind == "header":
-                header = rec
-            elif kind == "tick":
-                if rec.get("t") != len(ticks):
-                    raise ValueError(f"line {lineno}: tick record t={rec.get('t')!r}, expected {len(ticks)}")
-                ticks.append(rec)
-                digest.update(rfc8785.dumps({"actions": rec["actions"], "events": rec["events"], "state": rec["state"]}))
+    for line in iter_lines(path):
+        if not line.ok:
+            raise ValueError(f"line {line.lineno}: {line.error}")
+        rec = line.value
+        kind = rec.get("type") if isinstance(rec, dict) else None
+        if kind == "header":
+            header = rec
+        elif kind == "tick":
+            if rec.get("t") != len(ticks):
+                raise ValueError(f"line {line.lineno}: tick record t={rec.get('t')!r}, expected {len(ticks)}")
+            ticks.append(rec)
+            digest.update(rfc8785.dumps({"actions": rec["actions"], "events": rec["events"], "state": rec["state"]}))
     if header is None:
         raise ValueError("no header record")
     if not ticks:
@@ -680,8 +555,8 @@ def _build_case(entry: dict[str, Any], lines: dict[str, int], path: Path, file: 
         if fingerprint(header["instance"]) != fingerprint(instance):
             raise SuiteError(Located(file, inst_line, f"the instance differs from the one in trace {driver['trace']!r} "
                                                       f"(fingerprints {fingerprint(instance)[:19]}… vs {fingerprint(header['instance'])[:19]}…)"))
-    seed = entry.get("execution_seed", _MISSING)
-    if seed is _MISSING:
+    seed = entry.get("execution_seed", MISSING)
+    if seed is MISSING:
         if driver is not None and "trace" in driver:
             seed = header.get("execution_seed")
         else:
@@ -906,10 +781,10 @@ def _lint_run(case: Case) -> list[str]:
                     toks = parse_pointer(pointer)
                     if toks and toks[0] not in STATE_KEYS:
                         out.append(f"{file}:{line}: {pointer}: the global state has no field {toks[0]!r}")
-                    elif resolve_pointer(r.state, pointer) is _MISSING:
+                    elif resolve_pointer(r.state, pointer) is MISSING:
                         out.append(f"{file}:{line}: {pointer} does not exist in the reference state after tick {r.t}")
                 for pointer in exp.get("observations", {}):
-                    if r.observations is not None and resolve_pointer(r.observations, pointer) is _MISSING:
+                    if r.observations is not None and resolve_pointer(r.observations, pointer) is MISSING:
                         out.append(f"{file}:{line}: observation {pointer} does not exist after tick {r.t}")
     except Exception as exc:  # the reference crashing on a case is a suite problem worth a located report
         out.append(f"{case.location}: the reference interpreter failed: {type(exc).__name__}: {exc}")

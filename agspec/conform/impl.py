@@ -237,6 +237,11 @@ class ReferenceImpl(PythonImpl):
         kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
         super().__init__(Server, spec="reference", **kw)
 
+    @property
+    def simulator(self):
+        """The interpreter behind the server (what a ``global`` policy reads), or None before ``load``."""
+        return self.adapter.sim if self.adapter is not None else None
+
 
 def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:
     """F-PROTOCOL: the reply echoes the request's seq; an earlier one is out of order."""

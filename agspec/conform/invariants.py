@@ -28,22 +28,31 @@ state record: ``pick_started``, ``handoff_started``, ``admitted``, ``delivery_st
 
 from __future__ import annotations
 
-import json
 import math
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
+from agspec.formats.actions import (
+    DELIVER,
+    DIRECTION_NAMES,
+    HANDOFF0,
+    IDLE,
+    N_ACTIONS,
+    OP0,
+    OP_SLOTS,
+    PICK0,
+    PICK_SLOTS,
+    RECEIVE0,
+)
+from agspec.formats.actions import describe as _action_name
+from agspec.formats.trace import read_records
 from agspec.ir import topology
 
 Json = dict[str, Any]
 
-N_ACTIONS = 114  # O-ACTION-ENCODING
-IDLE, DELIVER, PICK0, HANDOFF0, RECEIVE0, OP0 = 0, 1, 2, 34, 42, 50
-PICK_SLOTS, OP_SLOTS = 32, 64
 DIRECTIONS = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
-DIRECTION_NAMES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 REACH_TOLERANCE = 1e-9  # G-REACH
 CONFLICT_TOLERANCE = 1e-12  # G-CONFLICT
 SUPPORT_TOLERANCE = 1e-12
@@ -1292,22 +1301,6 @@ def expected_mask(ctx: Context, view: StateView, robot: str, obs: Json) -> list[
     return mask
 
 
-def _action_name(a: int) -> str:
-    if a == IDLE:
-        return "idle"
-    if a == DELIVER:
-        return "deliver"
-    if PICK0 <= a < HANDOFF0:
-        return f"pick slot {a - PICK0}"
-    if HANDOFF0 <= a < RECEIVE0:
-        return f"handoff {DIRECTION_NAMES[a - HANDOFF0]}"
-    if RECEIVE0 <= a < OP0:
-        return f"receive {DIRECTION_NAMES[a - RECEIVE0]}"
-    if OP0 <= a < N_ACTIONS:
-        return f"operation slot {a - OP0}"
-    return f"out-of-range action {a}"
-
-
 def inv_masking(ctx: Context, prev: Json | None, rec: Json) -> list[Violation]:
     """INV-MASKING: idle is always legal; a busy robot has only idle; the mask equals O-MASK (it hides no
     locally legal action, e.g. the pick slots of a free empty-handed input robot, and exposes nothing
@@ -1584,29 +1577,12 @@ def check_trace(records: Iterable[Json]) -> Report:
 
 def read_trace(source: str | Path) -> list[Json]:
     """Read a JSON Lines trace file; an unparsable line ends the trace (checked as truncated)."""
-    out = []
-    with open(source, encoding="utf-8") as fh:
-        for line in fh:
-            if not line.strip():
-                continue
-            try:
-                out.append(json.loads(line))
-            except json.JSONDecodeError:
-                break
-    return out
+    return read_records(source)
 
 
 def parse_trace_text(text: str) -> list[Json]:
     """Parse trace text (JSON Lines); stops at the first unparsable line."""
-    out = []
-    for line in text.splitlines():
-        if not line.strip():
-            continue
-        try:
-            out.append(json.loads(line))
-        except json.JSONDecodeError:
-            break
-    return out
+    return read_records(text.splitlines())
 
 
 def check_trace_file(path: str | Path) -> Report:

@@ -11,13 +11,13 @@ from typing import Any
 
 import networkx as nx
 
+from agspec.formats.actions import DIRECTION_NAMES
 from agspec.ir import topology
 
 Cell = tuple[int, int]
 
 # DIRECTIONS index d -> (d_row, d_col) (O-ACTION-ENCODING)
 DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
-DIRECTION_NAMES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
 
 @dataclass(frozen=True)

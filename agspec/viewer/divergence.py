@@ -21,7 +21,7 @@ from typing import Any, Mapping
 
 from agspec.viewer.encode import TraceData, encode, trace_data
 from agspec.viewer.record import record
-from agspec.trace.write import TraceWriter
+from agspec.formats.trace import TraceWriter
 
 DIFF_FORMAT = "agspec-replay-diff/1"
 MAX_POINTERS = 200  # differing pointers kept per tick
