@@ -42,12 +42,15 @@ import json
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import rfc8785
 import yaml
 from jsonschema.exceptions import best_match
 
+from agspec.conform.driver import Pair, Step, lockstep
+from agspec.conform.impl import ReferenceImpl
+from agspec.conform.policies import ControllerPolicy, ScriptPolicy
 from agspec.formats.actions import IDLE, IllegalAction, resolve
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.pointer import MISSING, PointerError, escape, first_difference, show
@@ -648,33 +651,37 @@ class TickResult:
     done: bool
 
 
-def reference_run(case: Case, *, observations: bool | Iterable[int] = False) -> Iterator[TickResult]:
-    """Run ``case`` on the reference interpreter, one :class:`TickResult` per transition.
+def reference_run(case: Case, *, observations: bool | Iterable[int] = False) -> list[TickResult]:
+    """Run ``case`` on the reference interpreter (the lockstep driver with one side), one
+    :class:`TickResult` per transition.
 
     ``observations``: True for every tick, or the ticks after which observations are wanted.
     """
-    from agspec.interp.snapshot import global_state
-    from agspec.interp.tick import Simulator
-
     want = observations if isinstance(observations, bool) else set(observations)
-    sim = Simulator(case.instance)
-    sim.reset(case.execution_seed)
-    ctl = None
     if case.driver is not None and "controller" in case.driver:
-        from agspec.controllers import make_controller
-
         seed = case.driver.get("seed")
-        seed = case.execution_seed if seed is None else seed
-        ctl = make_controller(case.driver["controller"], seed)
-        ctl.reset(seed)
-    for t in range(case.ticks):
-        if ctl is not None:
-            actions = ctl.act(sim.observe(), sim if ctl.information == "global" else None)
-        else:
-            actions = case.actions[t]
-        result = sim.step(actions)
-        obs = sim.observe() if (want is True or (want is not False and t in want)) else None
-        yield TickResult(t, dict(actions), dict(result.applied), global_state(sim.state), result.events, obs, sim.done)
+        policy: Any = ControllerPolicy(case.driver["controller"], case.execution_seed if seed is None else seed)
+    else:
+        policy = ScriptPolicy(case.actions)
+    out: list[TickResult] = []
+
+    def collect(step: Step) -> bool:
+        if step.t >= 0:
+            reply = step.expected
+            obs = reply.get("observations") if (want is True or (want is not False and step.t in want)) else None
+            out.append(TickResult(step.t, dict(step.joint), dict(reply["applied"]), reply["state"], reply["events"],
+                                  obs, reply["done"]))
+        return False
+
+    reference = ReferenceImpl()
+    try:
+        run = lockstep(Pair(reference, None), case.instance, case.execution_seed, policy, case.ticks,
+                       stop_at_done=False, observer=collect)
+    finally:
+        reference.close()
+    if run.failure is not None:
+        raise RuntimeError(run.failure.message) from run.failure.__cause__
+    return out
 
 
 def check_reference(case: Case) -> list[str]:
