@@ -48,7 +48,7 @@ from agspec.formats.actions import (
 )
 from agspec.formats.actions import describe as _action_name
 from agspec.formats.trace import read_records
-from agspec.ir import topology
+from agspec.ir import topology, variants
 
 Json = dict[str, Any]
 
@@ -303,7 +303,7 @@ class Context:
             capacities=caps,
             shelf_capacity=int(sc["shelves"]["capacity"]),
             support_timeout=int(sc["coordination"]["support_timeout"]),
-            support_visible=bool(sc["coordination"].get("support_visible", True)),
+            support_visible=variants.enabled("support_visible", sc),
             wip_cap=int(sc["release"]["wip_cap"]),
             interval=int(sc["release"]["interval"]),
             mode=ev["mode"],
