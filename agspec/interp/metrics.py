@@ -207,8 +207,10 @@ class MetricsAccumulator:
             "robot_occupancy": self.busy_sum / max(1, self.samples),
             "ready_feasible_fraction": self.feasible_sum / self.ready_sum if self.ready_sum else None,
             "blocked_ready_rate": 1 - self.feasible_sum / self.ready_sum if self.ready_sum else None,
-            # DIV-BR-READY-SET: the original release's variant counts only occurrences whose inputs exist
-            "blocked_ready_rate_material": 1 - self.feasible_sum / self.ready_material_sum if self.ready_material_sum else None,
+            # DIV-BR-READY-SET: the original release's variant counts only occurrences whose inputs exist;
+            # M-RATIO-FORMS: (ready - feasible) / ready, the original's arithmetic, not 1 - feasible / ready
+            "blocked_ready_rate_material": (self.ready_material_sum - self.feasible_sum) / self.ready_material_sum
+            if self.ready_material_sum else None,
             "no_progress_ticks": self.no_progress,
             "handoffs": int(c.get("handoff_count", 0)),
             "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),
