@@ -673,7 +673,7 @@ def reference_run(case: Case, *, observations: bool | Iterable[int] = False) -> 
                                   obs, reply["done"]))
         return False
 
-    reference = ReferenceImpl()
+    reference = ReferenceImpl(observations=bool(want) or policy.observes, masks=False)
     try:
         run = lockstep(Pair(reference, None), case.instance, case.execution_seed, policy, case.ticks,
                        stop_at_done=False, observer=collect)

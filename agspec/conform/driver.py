@@ -57,6 +57,7 @@ class Policy(Protocol):
 
     name: str
     information: str  # "local" or "global" (reads the reference simulator)
+    observes: bool  # acts on observations (False: a script of integers)
 
     def reset(self) -> None: ...
 
@@ -257,7 +258,7 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
     run.replies = (exp, act)
     simulator = getattr(exp_impl, "simulator", None)
     shadow = None
-    if exp.get("observations") is None or (policy.information == "global" and simulator is None):
+    if (policy.observes and exp.get("observations") is None) or (policy.information == "global" and simulator is None):
         shadow = _Shadow(instance, execution_seed)
         simulator = shadow.sim
     if act is not None:

@@ -231,11 +231,11 @@ class PythonImpl(Implementation):
 class ReferenceImpl(PythonImpl):
     """The built-in reference interpreter (:class:`agspec.conform.serve.Server`), in process."""
 
-    def __init__(self, **kw: Any):
+    def __init__(self, *, observations: bool = True, masks: bool = True, **kw: Any):
         from agspec.conform.serve import Server
 
         kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
-        super().__init__(Server, spec="reference", **kw)
+        super().__init__(lambda: Server(observations=observations, masks=masks), spec="reference", **kw)
 
     @property
     def simulator(self):

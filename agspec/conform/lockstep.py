@@ -100,15 +100,17 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reason:
             res.outcome, res.message = "skip", reason
             return res
-        reference = ReferenceImpl()
+        if item.controller is not None:
+            policy: Any = ControllerPolicy(item.controller["name"], item.controller.get("seed"))
+        else:
+            policy = ScriptPolicy(item.actions)
+        # the reference computes observations and masks only when compared or acted on
+        reference = ReferenceImpl(observations=bool(caps.get("observations")) or policy.observes,
+                                  masks=bool(caps.get("masks")))
         reference.start()
         pair = Pair(reference, impl, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
                     cache_loads=False)
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False))
-        if item.controller is not None:
-            policy = ControllerPolicy(item.controller["name"], item.controller.get("seed"))
-        else:
-            policy = ScriptPolicy(item.actions)
         run = driver.lockstep(pair, item.instance, item.execution_seed, policy, item.ticks,
                               tolerance=opts.tolerance, observer=checker.observe)
         res.ticks = run.ticks

@@ -29,6 +29,7 @@ class ControllerPolicy:
         self.reset_seed = seed if reset_seed is None else reset_seed
         self._ctl = make_controller(controller, seed)
         self.information = self._ctl.information
+        self.observes = True
 
     def reset(self) -> None:
         self._ctl.reset(self.reset_seed)
@@ -52,6 +53,8 @@ class ScriptPolicy:
 
     def __init__(self, script: Sequence[Mapping[str, Any]]):
         self.script = [dict(j) for j in script]
+        # integers need no option lists: a script of integers is driven without observations
+        self.observes = any(not isinstance(a, int) or isinstance(a, bool) for j in self.script for a in j.values())
 
     def reset(self) -> None:
         pass
@@ -61,7 +64,7 @@ class ScriptPolicy:
         out = {}
         for robot, action in joint.items():
             if isinstance(action, int) and not isinstance(action, bool):
-                a = action  # integers need no option lists
+                a = action
             else:
                 a = resolve(action, *option_ids((observations or {}).get(robot)))
             if a != IDLE:
@@ -74,6 +77,7 @@ class GenePolicy:
 
     name = "hypothesis"
     information = "local"
+    observes = True
 
     def __init__(self, genes: Sequence[Sequence[int]]):
         self.genes = [list(g) for g in genes]

@@ -137,7 +137,7 @@ class MetricsAccumulator:
             (self.util_exact if self._exact else self.util_approx).append(k_t / self._k_star)
 
     def post_advance(self, state: State, progress: int) -> None:
-        """M-MEAN-WIP sample and M-NO-PROGRESS indicator after the clock advance."""
+        """M-MEAN-WIP sample and the R-NO-PROGRESS indicator (counted by M-NO-PROGRESS) after the clock advance."""
         self.wip_sum += state.wip
         self.wip_samples += 1
         team_active = any(a.is_operation for a in state.activities)

@@ -56,6 +56,7 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
         ctl_record = {"name": policy._ctl.name, "information": policy.information}
     else:
         policy = ScriptPolicy([{r: int(a) for r, a in joint.items()} for joint in actions])
+        policy.observes = policy.observes or observations  # I_t for the trace: from a shadow if need be
         ctl_record = {"name": "script"}
     limit = min(ticks, len(actions)) if actions is not None else ticks
     try:
