@@ -9,22 +9,23 @@ from pathlib import Path
 
 # `### R-PICK — picks`: the headings that define IDs (agspec.spec_index reads the same form)
 HEADING = re.compile(r"^###\s+([A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+)\s+(?:—|-{1,2})\s+")
-SECTION = re.compile(r"^##\s+([A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+)\s+(?:—|-{1,2})\s+")  # `## F-CODES — …`
+DEFINING = re.compile(r"^#{2,4}\s+([A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+)\s+(?:—|-{1,2})\s+")  # also `## F-CODES`, `#### F-…`
 RESOLUTION = re.compile(r"Resolution ((?:RES|DIV|DEV)-[A-Z0-9]+(?:-[A-Z0-9]+)*)")
 NUMBERED = re.compile(r"^(\d+)\.\s+(.*)$")
 STEP = re.compile(r"#\s*step\s+(\d+):\s*(.*)$")
 ID_IN_TEXT = r"[A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+"
 ISSUE = re.compile(r"\bissues?\s+#?\d+|\bissue\s+#\d+|#\d{2,}\b", re.IGNORECASE)
-FILE_REF = re.compile(r"(?<![\w./-])((?:[\w.-]+/)*[\w-]+\.(?:md|py|json|yaml|yml|ag|lark|jsonl|html|toml))(?![\w/])")
-NORMATIVE = ("R-", "INV-", "M-")  # every such ID must be implemented (cited by code) and tested
+FILE_REF = re.compile(r"(?<![\w./-])((?:[\w.-]+/)*[\w-]+\.(?:md|py|json|yaml|yml|ag|lark|toml))(?![\w/])")
+NORMATIVE = ("R-", "INV-", "M-")
+GUARD_FILES = ("spec_guard.py", "test_spec_guard.py")  # every such ID must be implemented (cited by code) and tested
 
 
 def defined_ids(root: Path) -> set[str]:
-    """IDs the spec defines: `### ID — …` and `## ID — …` headings and `Resolution ID` markers."""
+    """IDs the spec defines: `## … ####  ID — …` headings and `Resolution ID` markers."""
     out: set[str] = set()
     for path in sorted((root / "spec").glob("*.md")):
         for line in path.read_text(encoding="utf-8").splitlines():
-            m = HEADING.match(line) or SECTION.match(line)
+            m = DEFINING.match(line)
             if m:
                 out.add(m.group(1))
             out.update(RESOLUTION.findall(line))
@@ -45,14 +46,17 @@ def _prefixes(ids: set[str]) -> list[str]:
     return sorted({i.split("-")[0] for i in ids}, key=len, reverse=True)
 
 
-def citations(root: Path, dirs: tuple[str, ...], ids: set[str], globs: tuple[str, ...] = ("*.py",)
-              ) -> dict[str, list[str]]:
+def citations(root: Path, dirs: tuple[str, ...], ids: set[str], globs: tuple[str, ...] = ("*.py",),
+              skip: tuple[str, ...] = ()) -> dict[str, list[str]]:
     """ID-shaped tokens with a spec prefix cited under ``dirs``: ID -> [file:line]."""
-    pattern = re.compile(rf"(?<![\w-])((?:{'|'.join(_prefixes(ids))})-[A-Z][A-Z0-9]*(?:-[A-Z0-9]+)*)(?![\w-])")
+    # not inside a regular expression's character class (``[A-Z0-9]``)
+    pattern = re.compile(rf"(?<![\w\[-])((?:{'|'.join(_prefixes(ids))})-[A-Z][A-Z0-9]*(?:-[A-Z0-9]+)*)(?![\w\]-])")
     out: dict[str, list[str]] = {}
     for d in dirs:
         for glob in globs:
             for path in sorted((root / d).rglob(glob)):
+                if path.name in skip:
+                    continue
                 for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
                     for m in pattern.finditer(line):
                         out.setdefault(m.group(1), []).append(f"{path.relative_to(root)}:{lineno}")
@@ -71,7 +75,7 @@ def uncited(root: Path) -> list[str]:
     (tests/ or a conformance case)."""
     ids = defined_ids(root)
     code = citations(root, ("agspec",), ids)
-    tests = citations(root, ("tests",), ids)
+    tests = citations(root, ("tests",), ids, skip=GUARD_FILES)  # the guard's own lists are not tests
     tests.update(citations(root, ("conformance/cases",), ids, ("*.yaml", "*.yml")))
     out = []
     for ident in normative_ids(root):
@@ -161,6 +165,8 @@ def stale_references(root: Path, dirs: tuple[str, ...] = ("agspec", "tests")) ->
             for lineno, text in _comments_and_docstrings(path):
                 if ISSUE.search(text):
                     out.append(f"{rel}:{lineno}: names an issue: {text.strip()[:80]}")
+                if "original" in text or " --" in text:  # the original release's files; command examples
+                    continue
                 for ref in FILE_REF.findall(text):
                     name = ref.split("/")[-1]
                     if ref not in known and name not in known and not _placeholder(ref):

@@ -1,4 +1,4 @@
-"""`agspec render` (issue 6): the compact replay encoding, the CLI, and the page in a real browser.
+"""`agspec render`: the compact replay encoding, the CLI, and the page in a real browser.
 
 Unit part: the keyframe + diff encoding reproduces every state and observation of a trace exactly;
 a 48-robot 400-tick page stays under 5 MB; bad input gets a located message and its exit code

@@ -89,6 +89,21 @@ def test_each_implemented_variant_changes_the_run(name):
     assert trace(base) != trace(flipped)
 
 
+def test_geometry_off_control_has_no_geometry_delay():  # M-GEOMETRY-DELAY, G-MOTION
+    sc, recipes, profile = load_scenario_bundle("coalition-medium")
+    delays = {}
+    for planning in (True, False):
+        inst = make_instance(sc, recipes, profile, index=0)
+        inst["profile"]["motion_planning"] = planning
+        sim = Simulator(inst)
+        ctl = make_controller("greedy", 0)
+        ctl.reset(0)
+        for _ in range(60):
+            sim.step(ctl.act(sim.observe()))
+        delays[planning] = sim.final_metrics()["geometry_delay_ticks"]
+    assert delays[False] == 0 < delays[True]
+
+
 def test_interpreter_reads_options_only_through_the_table():
     """Guard: no module of the interpreter, the invariant checker or the controllers reads a rule-variant option directly (planted drift below)."""
     for package in ("interp", "conform", "controllers"):

@@ -1,4 +1,4 @@
-"""`agspec diff`: differential testing of two implementations with shrinking (issue 4, part 5)."""
+"""`agspec diff`: differential testing of two implementations with shrinking (F-CONFORM, F-REPRO)."""
 
 from __future__ import annotations
 

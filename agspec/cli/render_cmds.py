@@ -1,4 +1,4 @@
-"""`agspec render`: a self-contained HTML replay of a trace, or of a conformance divergence (issue 6)."""
+"""`agspec render`: a self-contained HTML replay of a trace, or of a conformance divergence."""
 
 from __future__ import annotations
 

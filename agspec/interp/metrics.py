@@ -173,7 +173,7 @@ class MetricsAccumulator:
             "demand_fulfillment": delivered / opportunities if opportunities else None,
             "mean_wip": self.wip_sum / max(1, self.wip_samples),
             "restricted_mean_flow_time": sum(rmft_terms) / len(rmft_terms) if rmft_terms else None,
-            "mean_flow_time": sum(flow) / len(flow) if flow else None,
+            "mean_flow_time": sum(flow) / len(flow) if flow else None,  # M-FLOW-TIME
             "flow_time_p50": _pct(flow, 0.5),
             "flow_time_p90": _pct(flow, 0.9),
             "unfinished_count": released - delivered,
@@ -213,7 +213,7 @@ class MetricsAccumulator:
             if self.ready_material_sum else None,
             "no_progress_ticks": self.no_progress,
             "handoffs": int(c.get("handoff_count", 0)),
-            "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),
+            "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),  # M-HANDOFFS
             # productive concurrency
             "capacity_mean": self.k_star_sum / max(1, self.samples),
             "realized_concurrency_mean": self.k_realized_sum / max(1, self.samples),

@@ -7,7 +7,7 @@ the record — never a traceback.  Checks, in order:
 * the file can be read (AG001/AG002) and every non-blank line is a JSON object (AG003);
 * every record satisfies ``schemas/trace.schema.json`` (AG2xx, with the pointer of the offending
   field; at most ``max_schema_errors`` are reported);
-* the structure of the trace (AG6xx, F-TRACE-CODES): a header first (AG601), tick records with
+* the structure of the trace (AG6xx, F-CODES): a header first (AG601), tick records with
   consecutive epochs whose state is at ``t + 1`` (AG602), nothing after the footer and a single
   header (AG603), a footer (AG604: the trace is truncated), a footer that agrees with the records
   and declares the execution complete (AG605), at least one record (AG606), a header fingerprint
