@@ -20,6 +20,7 @@ from typing import Any, Mapping, Sequence
 
 from agspec import __version__
 from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
+from agspec.ir.schemas import validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
 # The parts of a reset/step reply, in the order they are compared.
@@ -215,7 +216,6 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
     inst = data.get("instance")
     if not isinstance(inst, dict) or inst.get("kind") != "instance":
         raise ReproError(f"{path}: /instance must be an instance IR")
-    from agspec.ir.schemas import validate_schema
 
     problems = [i for i in validate_schema(inst) if i.severity == "error"]
     if problems:

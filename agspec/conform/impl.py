@@ -37,6 +37,7 @@ from typing import Any, Callable, Mapping
 
 from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
+from agspec.conform.serve import Server
 
 Reply = dict[str, Any]
 # on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
@@ -232,7 +233,6 @@ class ReferenceImpl(PythonImpl):
     """The built-in reference interpreter (:class:`agspec.conform.serve.Server`), in process."""
 
     def __init__(self, *, observations: bool = True, masks: bool = True, **kw: Any):
-        from agspec.conform.serve import Server
 
         kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
         super().__init__(lambda: Server(observations=observations, masks=masks), spec="reference", **kw)

@@ -14,7 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
+from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
 from agspec.conform.cases import Case
+from agspec.ir.instance import make_instance
 
 
 @dataclass(frozen=True)
@@ -62,8 +64,6 @@ def from_case(case: Case) -> Item:
 def catalogue_episodes(episodes: int, ticks: int, scenarios: Sequence[str] | None = None,
                        index: int = 0) -> list[Item]:
     """F-CONFORM: per official scenario, greedy plus ``episodes - 1`` seeded random episodes."""
-    from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
-    from agspec.ir.instance import make_instance
 
     if episodes <= 0 or ticks <= 0:
         return []

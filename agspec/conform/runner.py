@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from multiprocessing.util import Finalize
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.conform import expect as expect_mod
@@ -83,7 +84,6 @@ _WORKER: dict[str, Any] = {}  # per worker process: its own implementation (neve
 
 
 def _init_worker(spec: str, timeout: float, validate: bool) -> None:
-    from multiprocessing.util import Finalize
 
     impl = make_impl(spec, timeout=timeout, validate=validate)
     _WORKER["impl"] = impl

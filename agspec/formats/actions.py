@@ -60,18 +60,13 @@ def resolve(action: Any, picks: Sequence[str] | None, operations: Sequence[str] 
         ((kind, arg),) = action.items()
         if kind in ("handoff", "receive") and arg in DIRECTION_NAMES:
             return (HANDOFF0 if kind == "handoff" else RECEIVE0) + DIRECTION_NAMES.index(arg)
-        if kind == "support":
-            ids = list(operations or ())
+        if kind in ("support", "pick"):
+            base, ids, what = ((OP0, list(operations or ()), f"candidate {arg!r} is not an operation option of")
+                               if kind == "support" else
+                               (PICK0, list(picks or ()), f"pick option {arg!r} is not offered to"))
             if arg not in ids:
-                raise IllegalAction(f"candidate {arg!r} is not an operation option of this robot "
-                                    f"(options: {', '.join(map(str, ids)) or 'none'})")
-            return OP0 + ids.index(arg)
-        if kind == "pick":
-            ids = list(picks or ())
-            if arg not in ids:
-                raise IllegalAction(f"pick option {arg!r} is not offered to this robot "
-                                    f"(options: {', '.join(map(str, ids)) or 'none'})")
-            return PICK0 + ids.index(arg)
+                raise IllegalAction(f"{what} this robot (options: {', '.join(map(str, ids)) or 'none'})")
+            return base + ids.index(arg)
     raise IllegalAction(f"{action!r} is not an action")
 
 

@@ -113,22 +113,14 @@ def validator(name: str) -> Draft202012Validator:
     return Draft202012Validator(_inline(docs[sid], sid, docs), registry=registry())
 
 
+_TYPE_WORDS = ((bool, "a boolean"), (int, "an integer"), (float, "a number"), (str, "a string"), (list, "an array"),
+               (dict, "an object"))  # bool before int: a boolean is not a number in JSON
+
+
 def json_type(value: Any) -> str:
     if value is None:
         return "null"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, list):
-        return "an array"
-    if isinstance(value, dict):
-        return "an object"
-    return type(value).__name__
+    return next((word for kind, word in _TYPE_WORDS if isinstance(value, kind)), type(value).__name__)
 
 
 def show_value(value: Any) -> str:
