@@ -12,7 +12,7 @@ from typing import Any
 
 from agspec.interp import geometry
 from agspec.interp.candidates import Candidate, xor_closed
-from agspec.interp.model import DIRECTION_NAMES, DIRECTIONS, Model
+from agspec.interp.model import Model
 from agspec.interp.state import Cell, State, cell_id
 
 # O-ACTION-ENCODING
@@ -118,15 +118,14 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
         mask[OP0 + k] = True
     if robot.supports is not None:
         return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
-    in_grid = [(d, (cell[0] + di, cell[1] + dj)) for d, (di, dj) in enumerate(DIRECTIONS)]
-    in_grid = [(d, c) for d, c in in_grid if c in state.robots]
+    in_grid = model.moore_neighbours[cell]
     if robot.holding is None:
         for k in range(len(options.picks)):
             mask[PICK0 + k] = True
-        for d, _ in in_grid:
+        for d, _, _ in in_grid:
             mask[RECEIVE0 + d] = True
     else:
-        for d, _ in in_grid:
+        for d, _, _ in in_grid:
             mask[HANDOFF0 + d] = True
         product = state.products[robot.holding[0]]
         spacing = float(model.profile["spacing"])
@@ -170,14 +169,11 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     """
     robot = state.robots[cell]
     neighbours = []
-    for d, (di, dj) in enumerate(DIRECTIONS):
-        nc = (cell[0] + di, cell[1] + dj)
-        if nc not in state.robots:
-            continue
+    for _, direction, nc in model.moore_neighbours[cell]:
         nb = state.robots[nc]
         neighbours.append(
             {
-                "dir": DIRECTION_NAMES[d],
+                "dir": direction,
                 "robot": cell_id(nc),
                 "holding": _held(state, model, nc),
                 "busy": not nb.free(state.t),
