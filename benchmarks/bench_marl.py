@@ -2,7 +2,7 @@
 
 Usage:  python benchmarks/bench_marl.py [--steps 400] [--index 1000] [--scenario S ...]
                                         [--baseline-python PY] [--reps 3] [--json]
-Measures ``env.reset`` + ``env.step`` only — the interpreter's transition plus the A-OBS-VECTOR
+Measures ``env.reset`` + ``env.step`` only, in CPU seconds of the process (time.process_time) — the interpreter's transition plus the A-OBS-VECTOR
 encoding and masks of every agent; the actions come from a fixed rule over each mask, computed
 outside the timer, so a policy's cost is not counted.  With a baseline (``--baseline-python`` or
 $AGSPEC_BASELINE_PYTHON) each scenario runs in fresh processes of both builds, interleaved,
@@ -38,15 +38,15 @@ def bench(scenario: str, index: int, steps: int) -> dict:
     from agspec.pettingzoo import parallel_env
 
     env = parallel_env(scenario, index=index, max_cycles=steps)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     obs, _ = env.reset(seed=0)
-    elapsed = time.perf_counter() - t0
+    elapsed = time.process_time() - t0
     n = 0
     while env.agents:
         actions = fixed_actions(obs, n)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         obs, *_ = env.step(actions)
-        elapsed += time.perf_counter() - t0
+        elapsed += time.process_time() - t0
         n += 1
     robots = len(env.possible_agents)
     return {"scenario": scenario, "robots": robots, "steps": n, "seconds": round(elapsed, 3),

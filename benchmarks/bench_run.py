@@ -3,7 +3,8 @@
 Usage:  python benchmarks/bench_run.py [--ticks 400] [--index 1000] [--controller greedy ...]
                                        [--baseline-python PY] [--reps 3] [--json]
 One cell = one episode of ``run_episode`` (interpreter + controller, as ``agspec run``), timed in
-the process.  With a baseline (``--baseline-python`` or $AGSPEC_BASELINE_PYTHON: the Python of a
+CPU seconds of the process (time.process_time: on a shared machine wall time mostly measures the
+other processes).  With a baseline (``--baseline-python`` or $AGSPEC_BASELINE_PYTHON: the Python of a
 virtual environment holding the baseline release), every cell runs in fresh processes of both
 builds, interleaved, ``--reps`` times each; the table shows the medians and their ratio, and the
 peak RSS of each side's process (a 400-tick concurrency-hard episode is the memory figure).
@@ -28,9 +29,9 @@ TARGET = 1.5  # issue: >= 1.5x the baseline's ticks/s on every official cell
 def bench(scenario: str, controller: str, index: int, ticks: int) -> dict:
     sc, recipes, profile = load_scenario_bundle(scenario)
     inst = make_instance(sc, recipes, profile, index=index)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     result = run_episode(inst, controller, horizon=ticks)
-    elapsed = time.perf_counter() - t0
+    elapsed = time.process_time() - t0
     n = result.metrics["ticks"]
     return {"scenario": scenario, "controller": controller, "index": index, "ticks": n,
             "seconds": round(elapsed, 4), "ticks_per_second": round(n / elapsed, 1),

@@ -162,45 +162,73 @@ def _held(state: State, model: Model, cell: Cell) -> dict[str, Any] | None:
     return {"product": item[0], "token": item[1], "final": item[1] == terminal}
 
 
-def observation(state: State, model: Model, cell: Cell, options: Options, mask: list[bool]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class EpochViews:
+    """What every observation of one epoch shares, built once per epoch instead of once per observer:
+    each robot's public view (what its neighbours see) and each candidate's option record."""
+
+    robots: dict[Cell, tuple[str, dict[str, Any] | None, bool, str | None, str | None]]
+    options: dict[str, dict[str, Any]]
+
+
+def public_view(state: State, model: Model, cell: Cell) -> tuple[str, dict[str, Any] | None, bool, str | None, str | None]:
+    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels."""
+    robot = state.robots[cell]
+    return (cell_id(cell), _held(state, model, cell), not robot.free(state.t), robot.op_label, robot.role_label)
+
+
+def option_record(cand: Candidate) -> dict[str, Any]:
+    """O-OBSERVATION, operation option: the record without the observer's role and the support."""
+    return {
+        "id": cand.cid,
+        "product": cand.pid,
+        "recipe": cand.recipe,
+        "operation": cand.op.id,
+        "type": cand.op.type,
+        "kmin": cand.op.kmin,
+        "size": cand.size,
+        "role": None,
+        "members": [cell_id(m) for m in cand.members],
+        "duration": cand.plan.duration,
+        "min_reach_margin": cand.plan.min_reach_margin,
+        "support": None,
+    }
+
+
+def epoch_views(state: State, model: Model, candidates: list[Candidate]) -> EpochViews:
+    return EpochViews({c: public_view(state, model, c) for c in model.cells},
+                      {cand.cid: option_record(cand) for cand in candidates})
+
+
+def observation(state: State, model: Model, cell: Cell, options: Options, mask: list[bool],
+                views: EpochViews | None = None) -> dict[str, Any]:
     """O-OBSERVATION: own state, Moore neighbours' task-level state, options, mask, own support.
 
     No global state, no remote robots, no due dates or values, no supporter identities.
+    ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
     robot = state.robots[cell]
     neighbours = []
     for _, direction, nc in model.moore_neighbours[cell]:
-        nb = state.robots[nc]
+        rid, held, busy, op, role = views.robots[nc] if views is not None else public_view(state, model, nc)
         neighbours.append(
             {
                 "dir": direction,
-                "robot": cell_id(nc),
-                "holding": _held(state, model, nc),
-                "busy": not nb.free(state.t),
+                "robot": rid,
+                "holding": None if held is None else dict(held),
+                "busy": busy,
                 "failed": False,
-                "op": nb.op_label,
-                "role": nb.role_label,
+                "op": op,
+                "role": role,
             }
         )
     ops = []
     for cand, frac in zip(options.operations, options.supports):
-        role = next(r for m, r in cand.roles if m == cell)
-        ops.append(
-            {
-                "id": cand.cid,
-                "product": cand.pid,
-                "recipe": cand.recipe,
-                "operation": cand.op.id,
-                "type": cand.op.type,
-                "kmin": cand.op.kmin,
-                "size": cand.size,
-                "role": role,
-                "members": [cell_id(m) for m in cand.members],
-                "duration": cand.plan.duration,
-                "min_reach_margin": cand.plan.min_reach_margin,
-                "support": frac,
-            }
-        )
+        record = dict(views.options[cand.cid]) if views is not None else option_record(cand)
+        record["role"] = next(r for m, r in cand.roles if m == cell)
+        record["members"] = list(record["members"])
+        record["support"] = frac
+        ops.append(record)
     return {
         "robot": cell_id(cell),
         "t": state.t,

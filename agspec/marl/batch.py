@@ -101,6 +101,6 @@ class BatchEncoder:
                                                 next(r for m, r in cand.roles if m == c), cand.plan.duration,
                                                 cand.plan.min_reach_margin, frac, cand.pid, cand.recipe,
                                                 cand.cid == supports[k], cand.members, c, self.pub)]
-        mask = np.array([masks[c] for c in self.cells], dtype=np.int8)
-        assert mask.shape == (n, N_ACTIONS)
-        return out, mask
+        # bytes() of a list of bools is its 0/1 bytes: the cheapest way from the interpreter's lists to int8
+        mask = np.frombuffer(bytearray(b"".join(bytes(masks[c]) for c in self.cells)), dtype=np.int8)
+        return out, mask.reshape(n, N_ACTIONS)
