@@ -36,6 +36,9 @@ class Options:
     supports: tuple[float, ...]  # support fraction of each operation option
 
 
+NO_OPTIONS = Options(picks=(), operations=(), supports=())
+
+
 def support_fraction(state: State, model: Model, cand: Candidate) -> float:
     """O-SUPPORT-FRACTION: recorded supporters / required robots (0 without a proposal or when hidden)."""
     if not model.support_visible:
@@ -97,7 +100,11 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
                 f"robot {cell_id(cell)} at t={state.t}: {len(picks)} pick options (limit {PICK_SLOTS}), "
                 f"{len(ops)} operation options (limit {OP_SLOTS})"
             )
-        out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops), supports=tuple(f for f, _, _ in ops))
+        if ops or picks:
+            out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
+                                supports=tuple(f for f, _, _ in ops))
+        else:
+            out[cell] = NO_OPTIONS  # most robots, most epochs (Options are immutable, so one serves all)
     return out
 
 
@@ -208,20 +215,20 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
     robot = state.robots[cell]
-    neighbours = []
-    for _, direction, nc in model.moore_neighbours[cell]:
-        rid, held, busy, op, role = views.robots[nc] if views is not None else public_view(state, model, nc)
-        neighbours.append(
-            {
-                "dir": direction,
-                "robot": rid,
-                "holding": None if held is None else dict(held),
-                "busy": busy,
-                "failed": False,
-                "op": op,
-                "role": role,
-            }
-        )
+    around = [(direction, views.robots[nc] if views is not None else public_view(state, model, nc))
+              for _, direction, nc in model.moore_neighbours[cell]]
+    neighbours = [
+        {
+            "dir": direction,
+            "robot": rid,
+            "holding": None if held is None else dict(held),
+            "busy": busy,
+            "failed": False,
+            "op": op,
+            "role": role,
+        }
+        for direction, (rid, held, busy, op, role) in around
+    ]
     ops = []
     for cand, frac in zip(options.operations, options.supports):
         record = dict(views.options[cand.cid]) if views is not None else option_record(cand)
