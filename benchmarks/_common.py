@@ -120,7 +120,7 @@ def ratio_table(title: str, rows: list[dict[str, Any]], columns: Sequence[tuple[
 
     table = Table(title=title)
     for key, header in columns:
-        table.add_column(header, justify="left" if key in ("scenario", "controller", "cell", "scope") else "right")
+        table.add_column(header, justify="left" if key in ("scenario", "controller", "cell", "scope", "side") else "right")
     for r in rows:
         table.add_row(*(_fmt(r.get(key)) for key, _ in columns))
     Console(width=160).print(table)  # not the 80-column default of a pipe: reports are read in files

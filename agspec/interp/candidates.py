@@ -133,9 +133,11 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
             continue
         if not all(model.adjacent(a, b) for a, b in combinations(holders, 2)):
             continue
+        # helpers are adjacent to every holder, so they are among the first holder's neighbours
+        around = model.neighbours[holders[0]] if holders else model.cells
         pool = [
             c
-            for c in model.cells
+            for c in around
             if c not in holders
             and robots[c].free(t)
             and robots[c].holding is None

@@ -13,7 +13,7 @@ from typing import Any
 from agspec.interp import geometry
 from agspec.interp.candidates import Candidate, xor_closed
 from agspec.interp.model import Model
-from agspec.interp.state import Cell, State, cell_id
+from agspec.interp.state import Cell, Product, State, cell_id
 
 # O-ACTION-ENCODING
 N_ACTIONS = 114
@@ -47,13 +47,9 @@ def support_fraction(state: State, model: Model, cand: Candidate) -> float:
     return len(proposal.votes) / cand.size if proposal else 0.0
 
 
-def pick_options(state: State, model: Model, cell: Cell) -> list[dict[str, Any]]:
-    """O-PICK-OPTIONS: picks open to an input-column robot that is free, empty and not supporting."""
-    robot = state.robots[cell]
-    if cell[1] != 0 or not robot.free(state.t) or robot.holding is not None or robot.supports is not None:
-        return []
-    spacing = float(model.profile["spacing"])
-    reach = float(model.profile["reach"])
+def pickable_tokens(state: State, model: Model) -> list[tuple[Product, str, int, int]]:
+    """O-PICK-OPTIONS, the part that does not depend on the robot: (product, token, shelf row, stock)
+    of every raw token an open product still needs, has not taken and finds in stock."""
     out = []
     for product in state.products:
         if product.delivered:
@@ -64,22 +60,39 @@ def pick_options(state: State, model: Model, cell: Cell) -> list[dict[str, Any]]
             if token in product.raw_taken or token not in needed:
                 continue
             row = product.source_rows[token]
-            if cell[0] not in state.shelf_access.get(row, ()):
-                continue
             stock = state.shelves[row].get(token, 0)
-            if stock <= 0 or not geometry.reachable(cell, geometry.shelf_point(row, spacing), reach, spacing):
-                continue
-            out.append(
-                {
-                    "id": f"pick:{product.pid}:{token}:{row}",
-                    "product": product.pid,
-                    "recipe": product.recipe,
-                    "token": token,
-                    "shelf_row": row,
-                    "stock": stock / model.shelf_capacity,
-                    "_priority": product.spawn_time,
-                }
-            )
+            if stock > 0:
+                out.append((product, token, row, stock))
+    return out
+
+
+def pick_options(state: State, model: Model, cell: Cell,
+                 pickable: list[tuple[Product, str, int, int]] | None = None) -> list[dict[str, Any]]:
+    """O-PICK-OPTIONS: picks open to an input-column robot that is free, empty and not supporting:
+    the pickable tokens whose shelf row this robot may access and reach.  ``pickable`` is
+    :func:`pickable_tokens` of this state when the caller already has it."""
+    robot = state.robots[cell]
+    if cell[1] != 0 or not robot.free(state.t) or robot.holding is not None or robot.supports is not None:
+        return []
+    spacing = float(model.profile["spacing"])
+    reach = float(model.profile["reach"])
+    out = []
+    for product, token, row, stock in pickable_tokens(state, model) if pickable is None else pickable:
+        if cell[0] not in state.shelf_access.get(row, ()):
+            continue
+        if not geometry.reachable(cell, geometry.shelf_point(row, spacing), reach, spacing):
+            continue
+        out.append(
+            {
+                "id": f"pick:{product.pid}:{token}:{row}",
+                "product": product.pid,
+                "recipe": product.recipe,
+                "token": token,
+                "shelf_row": row,
+                "stock": stock / model.shelf_capacity,
+                "_priority": product.spawn_time,
+            }
+        )
     out.sort(key=lambda o: (o["_priority"], o["id"]))  # FIFO priority, then id string
     return out
 
@@ -92,9 +105,10 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
         for m in cand.members:
             per_robot[m].append((frac, cand.cid, cand))
     out = {}
+    pickable = pickable_tokens(state, model)
     for cell in model.cells:
         ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1]))
-        picks = pick_options(state, model, cell)
+        picks = pick_options(state, model, cell, pickable)
         if len(ops) > OP_SLOTS or len(picks) > PICK_SLOTS:
             raise SlotOverflow(
                 f"robot {cell_id(cell)} at t={state.t}: {len(picks)} pick options (limit {PICK_SLOTS}), "
