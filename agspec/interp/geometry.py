@@ -291,6 +291,29 @@ def plan_activity(
     )
 
 
+class PlanMemo:
+    """Plans of one profile by (members with their current poses and targets, process, common target).
+
+    A plan is a pure function of those inputs (G-MOTION), and an instance's candidates are planned
+    again every epoch while most poses have not changed, so the interpreter looks them up here.
+    MotionInfeasible (None) is remembered too.  Bounded: the memo starts over past ``limit`` entries.
+    """
+
+    def __init__(self, profile: Mapping[str, Any], limit: int = 20_000):
+        self.profile, self.limit = profile, limit
+        self._plans: dict[tuple, Plan | None] = {}
+
+    def plan(self, members: Sequence[tuple[Cell, RobotPose, Point]], process: int, common_target: Point) -> Plan | None:
+        key = (tuple(members), process, common_target)
+        if key in self._plans:
+            return self._plans[key]
+        if len(self._plans) >= self.limit:
+            self._plans.clear()
+        plan = plan_activity(members, process, self.profile, common_target=common_target)
+        self._plans[key] = plan
+        return plan
+
+
 # --------------------------------------------------------------------------------------------
 # Segment distance and conflicts (G-SEGMENT-DISTANCE, G-CONFLICT)
 # --------------------------------------------------------------------------------------------

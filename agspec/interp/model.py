@@ -11,6 +11,7 @@ from typing import Any
 
 import networkx as nx
 
+from agspec.interp import geometry
 from agspec.ir import topology
 
 Cell = tuple[int, int]
@@ -205,6 +206,11 @@ class Model:
                      if (c[0] + di, c[1] + dj) in cells)
             for c in self.cells
         }
+
+    @cached_property
+    def plans(self) -> geometry.PlanMemo:
+        """Operation candidates' motion plans, remembered across epochs (a cache, not state)."""
+        return geometry.PlanMemo(self.profile)
 
     def adjacent(self, a: Cell, b: Cell) -> bool:
         """G_manip adjacency (D-TOPOLOGY), from agspec.ir.topology."""
