@@ -60,3 +60,75 @@ def _cell(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.3f}"
     return "—" if v is None else str(v)
+
+
+# --------------------------------------------------------------------------- baseline side by side
+
+BASELINE_ENV = "AGSPEC_BASELINE_PYTHON"
+
+
+def baseline_python(given: str | None) -> str | None:
+    """The Python of a virtual environment with the baseline release installed (``--baseline-python``
+    or $AGSPEC_BASELINE_PYTHON), or None: the scripts then print this build's figures only."""
+    import os
+
+    path = given or os.environ.get(BASELINE_ENV)
+    if not path:
+        return None
+    if not os.path.exists(path):
+        raise SystemExit(f"baseline python {path!r} does not exist (see docs/performance.md)")
+    return path
+
+
+def run_json(python: str, script: str, args: Sequence[str]) -> dict[str, Any]:
+    """Run a benchmark script (its ``--json`` worker mode) under ``python``; its JSON result."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != BASELINE_ENV}  # the worker measures one side only
+    proc = subprocess.run([python, script, *args, "--json"], capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        raise SystemExit(f"{python} {script} {' '.join(args)} failed:\n{proc.stderr[-2000:]}")
+    return json.loads(proc.stdout)
+
+
+def paired(script: str, args: Sequence[str], reps: int, baseline: str | None,
+           value: Any) -> dict[str, Any]:
+    """Median of ``value(result)`` for this build and the baseline, runs interleaved (new, base,
+    base, new, ...) so that load from other processes on a shared machine hits both sides alike."""
+    import statistics
+
+    sides = {"new": sys.executable, **({"baseline": baseline} if baseline else {})}
+    samples: dict[str, list[float]] = {k: [] for k in sides}
+    last: dict[str, dict[str, Any]] = {}
+    for rep in range(reps):
+        order = list(sides) if rep % 2 == 0 else list(reversed(sides))
+        for side in order:
+            last[side] = run_json(sides[side], script, args)
+            samples[side].append(value(last[side]))
+    out: dict[str, Any] = {side: statistics.median(v) for side, v in samples.items()}
+    out["samples"] = samples
+    out["last"] = last
+    if baseline:
+        out["ratio"] = out["new"] / out["baseline"] if out["baseline"] else None
+    return out
+
+
+def ratio_table(title: str, rows: list[dict[str, Any]], columns: Sequence[tuple[str, str]]) -> None:
+    """A rich table of ``rows``; ``columns`` are (key, header) pairs; floats get 2-3 significant places."""
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=title)
+    for key, header in columns:
+        table.add_column(header, justify="left" if key in ("scenario", "controller", "cell", "scope", "side") else "right")
+    for r in rows:
+        table.add_row(*(_fmt(r.get(key)) for key, _ in columns))
+    Console(width=160).print(table)  # not the 80-column default of a pipe: reports are read in files
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "NO"
+    if isinstance(v, float):
+        return f"{v:.2f}" if abs(v) < 100 else f"{v:.0f}"
+    return "—" if v is None else str(v)

@@ -1,6 +1,7 @@
 """Conformance overhead: `agspec conform --impl reference` over plain runs of the same episodes.
 
 Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--quick] [--json]
+        python benchmarks/bench_conform.py --full-suite [--baseline-python PY] [--json]
 
 Both sides are cold processes, so start-up is included on both:
   conform:  agspec conform --impl reference --no-suite --episodes E --ticks T
@@ -8,16 +9,20 @@ Both sides are cold processes, so start-up is included on both:
   plain:    the same episodes through agspec.evaluate.run_episode (what `agspec run` does), one process.
 overhead = conform / plain - 1   (target, issue 5: ≤ 0.5).  Peak memory of each is the child's max RSS.
 If `agspec conform` does not exist in this build, the benchmark says so and exits 0.
+``--full-suite`` instead measures one plain `agspec conform --impl reference` (suite and episodes) —
+wall time and peak RSS — for this build and, with a baseline (``--baseline-python`` or
+$AGSPEC_BASELINE_PYTHON), for the baseline release too.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 from pathlib import Path
 
-from _common import agspec_cmd, emit, timed_run
+from _common import agspec_cmd, baseline_python, emit, ratio_table, timed_run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,12 +59,31 @@ def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]
     return seconds, done, usage.ru_maxrss / 1024
 
 
+def full_suite(args) -> None:
+    conform = ["conform", "--impl", "reference", "--format", "json"]
+    sides = [("new", [*agspec_cmd(), *conform])]
+    baseline = baseline_python(args.baseline_python)
+    if baseline:
+        sides.insert(0, ("baseline", [baseline, "-c", "from agspec.cli.main import main; main()", *conform]))
+    rows = []
+    for side, cmd in sides:
+        seconds, proc, peak = _measure(cmd)
+        rows.append({"side": side, "wall_s": seconds, "exit_code": proc.returncode, "peak_rss_mib": peak})
+    if args.json:
+        print(json.dumps({"benchmark": "conform-full-suite", "rows": rows}, indent=2))
+        return
+    ratio_table("agspec conform --impl reference (full suite): wall time and peak RSS", rows,
+                [("side", "build"), ("wall_s", "wall s"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--ticks", type=int, default=400)
     ap.add_argument("--episodes", type=int, default=1)
     ap.add_argument("--scenario", action="append", default=None)
     ap.add_argument("--quick", action="store_true", help="2 scenarios x 40 ticks (CI smoke)")
+    ap.add_argument("--full-suite", action="store_true", help="peak RSS and wall time of a default conform run")
+    ap.add_argument("--baseline-python", default=None, help="Python of the baseline release's venv")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     if args.quick:
@@ -67,6 +91,9 @@ def main() -> None:
     probe = subprocess.run([*agspec_cmd(), "conform", "--help"], capture_output=True, text=True)
     if probe.returncode != 0:
         print("agspec conform is not available in this build; conformance overhead not measured")
+        return
+    if args.full_suite:
+        full_suite(args)
         return
     select = []
     if args.scenario:

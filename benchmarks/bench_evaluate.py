@@ -1,10 +1,13 @@
 """Wall time of the full evaluation: 4 controllers × 9 official scenarios × 50 final-test instances × 400 ticks.
 
-Usage:  python benchmarks/bench_evaluate.py [-j 2] [--quick] [--json]
+Usage:  python benchmarks/bench_evaluate.py [-j 2] [--quick] [--baseline-python PY] [--json]
 ``--quick`` runs a subset (2 scenarios × 2 controllers × 2 instances, full 400 ticks) for CI smoke.
 The run goes through the CLI (`agspec evaluate --format json`) in a fresh process, as a user would run it;
 peak memory is the largest RSS among the CLI process and its (reaped) pool workers, from
-getrusage(RUSAGE_CHILDREN).  Target (issue 5): ≤ 10 minutes on 2 cores.
+getrusage(RUSAGE_CHILDREN).  Target: ≤ 60 s on 2 cores.  With a baseline (``--baseline-python`` or
+$AGSPEC_BASELINE_PYTHON) the same command runs with the baseline release too, and the table shows
+both wall times and their ratio (one run each: the full evaluation is long; wall time, since the
+command's own pool is part of what is measured).
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import argparse
 import json
 from pathlib import Path
 
-from _common import agspec_cmd, children_peak_mib, emit, timed_run
+from _common import agspec_cmd, baseline_python, children_peak_mib, emit, ratio_table, timed_run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -22,6 +25,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("-j", "--jobs", type=int, default=2)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--baseline-python", default=None, help="Python of the baseline release's venv")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     cmd = [*agspec_cmd(), "evaluate", "-j", str(args.jobs), "--format", "json"]
@@ -31,13 +35,28 @@ def main() -> None:
         scope = "2 scenarios x 2 controllers x 2 instances x 400 ticks"
     else:
         scope = "9 scenarios x 4 controllers x 50 instances x 400 ticks"
+    baseline = baseline_python(args.baseline_python)
+    if baseline:
+        base_cmd = [baseline, "-c", "from agspec.cli.main import main; main()", *cmd[len(agspec_cmd()):]]
+        base_s, base_proc = timed_run(base_cmd, cwd=ROOT)
     seconds, proc = timed_run(cmd, cwd=ROOT)
     episodes = len(json.loads(proc.stdout)["runs"]) if proc.returncode == 0 else None
     row = {"scope": scope, "jobs": args.jobs, "episodes": episodes, "wall_s": seconds,
            "episodes_per_s": (episodes / seconds) if episodes else None, "exit_code": proc.returncode,
-           "peak_rss_mib": round(children_peak_mib(), 1), "target_s": 600}
+           "peak_rss_mib": round(children_peak_mib(), 1), "target_s": 60}
     if proc.returncode != 0:
         row["stderr"] = proc.stderr[-2000:]
+    if baseline:
+        row.update(baseline_wall_s=base_s, baseline_exit_code=base_proc.returncode, speedup=base_s / seconds,
+                   same_results=base_proc.stdout == proc.stdout)
+        if args.json:
+            print(json.dumps({"benchmark": "evaluate", **row}, indent=2))
+            return
+        ratio_table("full evaluation wall time, baseline and this build (same command)", [row],
+                    [("scope", "scope"), ("jobs", "jobs"), ("episodes", "episodes"), ("baseline_wall_s", "baseline s"),
+                     ("wall_s", "new s"), ("speedup", "speedup"), ("target_s", "target s"),
+                     ("same_results", "same JSON")])
+        return
     emit({"benchmark": "evaluate", **row}, [row], ("scope", "jobs", "episodes", "wall_s", "episodes_per_s",
                                                    "peak_rss_mib"), "full evaluation wall time", args.json)
 

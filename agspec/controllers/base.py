@@ -6,6 +6,7 @@ carries its action mask) to an action; it never sees the global state (C-INFORMA
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any, Mapping, Protocol
 
 from agspec.interp.model import DIRECTIONS
@@ -23,6 +24,7 @@ class Controller(Protocol):
     def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]: ...
 
 
+@lru_cache(maxsize=4096)  # pure: robot ids repeat every tick, parsing them dominated the controllers' profile
 def parse_cell(robot: str) -> tuple[int, int]:
     i, j = robot.split(",")
     return int(i), int(j)
@@ -33,7 +35,8 @@ def chebyshev(a: tuple[int, int], b: tuple[int, int]) -> int:
     return max(abs(a[0] - b[0]), abs(a[1] - b[1]))
 
 
-def staging_set(anchor: tuple[int, int], rows: int, cols: int) -> list[tuple[int, int]]:
+@lru_cache(maxsize=4096)  # pure function of the grid: one computation per (anchor, grid size)
+def staging_set(anchor: tuple[int, int], rows: int, cols: int) -> tuple[tuple[int, int], ...]:
     """C-STAGING: anchor plus Moore neighbours (row-major) adjacent to all cells chosen so far, up to 4."""
     chosen = [anchor]
     neighbours = [
@@ -52,7 +55,7 @@ def staging_set(anchor: tuple[int, int], rows: int, cols: int) -> list[tuple[int
             break
         if n not in chosen:
             chosen.append(n)
-    return chosen
+    return tuple(chosen)
 
 
 def item_target(product: int, token: str, final: bool, at: tuple[int, int], rows: int, cols: int) -> tuple[int, int]:
@@ -61,8 +64,13 @@ def item_target(product: int, token: str, final: bool, at: tuple[int, int], rows
         return (at[0], cols - 1)
     anchor = (product % max(1, rows - 1), max(0, cols - 3))
     cells = staging_set(anchor, rows, cols)
-    slot = sum((k + 1) * ord(ch) for k, ch in enumerate(token)) % 4
-    return cells[slot % len(cells)]
+    return cells[token_slot(token) % len(cells)]
+
+
+@lru_cache(maxsize=4096)  # pure: a token's staging slot never changes
+def token_slot(token: str) -> int:
+    """C-STAGING: the slot of a token in its product's staging set."""
+    return sum((k + 1) * ord(ch) for k, ch in enumerate(token)) % 4
 
 
 __all__ = ["DELIVER", "HANDOFF0", "IDLE", "OP0", "PICK0", "RECEIVE0", "DIRECTIONS"]

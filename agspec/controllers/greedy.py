@@ -64,7 +64,6 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
     mask = obs["mask"]
     rows, cols = obs["grid"]
     me = parse_cell(obs["robot"])
-    by_cell = {parse_cell(n["robot"]): n for n in obs["neighbours"]}
     held = obs["holding"]
     if held is None:
         if obs["pick_options"] and mask[PICK0]:
@@ -90,6 +89,7 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
     here = chebyshev(me, target)
     if here == 0:
         return IDLE
+    by_cell = {parse_cell(n["robot"]): n for n in obs["neighbours"]}
     best = None
     for d, (di, dj) in enumerate(DIRECTIONS):
         if not mask[HANDOFF0 + d]:

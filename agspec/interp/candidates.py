@@ -133,9 +133,11 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
             continue
         if not all(model.adjacent(a, b) for a, b in combinations(holders, 2)):
             continue
+        # helpers are adjacent to every holder, so they are among the first holder's neighbours
+        around = model.neighbours[holders[0]] if holders else model.cells
         pool = [
             c
-            for c in model.cells
+            for c in around
             if c not in holders
             and robots[c].free(t)
             and robots[c].holding is None
@@ -172,9 +174,7 @@ def realize(state: State, model: Model, product: Product, op: OperationSpec, mem
     spacing = float(model.profile["spacing"])
     site = geometry.operation_site(list(holders), list(members), spacing)
     targets = geometry.role_targets(site, list(roles), float(model.profile["role_target_offset"]), spacing)
-    plan = geometry.plan_activity(
-        [(m, state.robots[m].pose, targets[m]) for m in members], op.duration, model.profile, common_target=site
-    )
+    plan = model.plans.plan([(m, state.robots[m].pose, targets[m]) for m in members], op.duration, site)
     if plan is None:
         return None
     resources = {f"operation:{product.pid}:{op.id}"} | {f"token:{product.pid}:{tok}" for tok in op.inputs}

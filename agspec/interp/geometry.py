@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.ir import variants
@@ -203,6 +204,14 @@ class Plan:
         """Approach + retreat ticks (the metric geometry_delay_ticks sums these)."""
         return self.approach + self.retreat
 
+    @cached_property
+    def segment_bounds(self) -> tuple[float, float, float, float]:
+        """(min x, min y, max x, max y) over all member segments: a cheap lower bound on segment
+        distances that lets :func:`plans_conflict` skip far-apart plans (it never decides a near case)."""
+        xs = [p[0] for seg in self.segments for p in seg]
+        ys = [p[1] for seg in self.segments for p in seg]
+        return (min(xs), min(ys), max(xs), max(ys))
+
     def final_poses(self) -> dict[Cell, RobotPose]:
         """G-END-EFFECTOR: each member's pose after completion (no return to base)."""
         return dict(zip(self.members, self.target_poses))
@@ -284,6 +293,29 @@ def plan_activity(
     )
 
 
+class PlanMemo:
+    """Plans of one profile by (members with their current poses and targets, process, common target).
+
+    A plan is a pure function of those inputs (G-MOTION), and an instance's candidates are planned
+    again every epoch while most poses have not changed, so the interpreter looks them up here.
+    MotionInfeasible (None) is remembered too.  Bounded: the memo starts over past ``limit`` entries.
+    """
+
+    def __init__(self, profile: Mapping[str, Any], limit: int = 20_000):
+        self.profile, self.limit = profile, limit
+        self._plans: dict[tuple, Plan | None] = {}
+
+    def plan(self, members: Sequence[tuple[Cell, RobotPose, Point]], process: int, common_target: Point) -> Plan | None:
+        key = (tuple(members), process, common_target)
+        if key in self._plans:
+            return self._plans[key]
+        if len(self._plans) >= self.limit:
+            self._plans.clear()
+        plan = plan_activity(members, process, self.profile, common_target=common_target)
+        self._plans[key] = plan
+        return plan
+
+
 # --------------------------------------------------------------------------------------------
 # Segment distance and conflicts (G-SEGMENT-DISTANCE, G-CONFLICT)
 # --------------------------------------------------------------------------------------------
@@ -363,6 +395,18 @@ def conflict_distance(
     return rho_conf + max(clearances[c] for c in (*p1.members, *p2.members))
 
 
+# Segment distances are never below the gap between the segments' bounding boxes; a box gap this far
+# beyond the limit cannot hide a conflict even after floating-point rounding of either computation.
+BOUNDS_MARGIN = 1e-6
+
+
+def _bounds_gap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:
+    """Euclidean gap between two axis-aligned boxes (0 when they overlap)."""
+    dx = max(0.0, a[0] - b[2], b[0] - a[2])
+    dy = max(0.0, a[1] - b[3], b[1] - a[3])
+    return math.hypot(dx, dy)
+
+
 def plans_conflict(
     p1: Plan,
     p2: Plan,
@@ -382,7 +426,7 @@ def plans_conflict(
     limit = conflict_distance(p1, p2, rho_conf, clearances) - CONFLICT_TOLERANCE
     if distance(p1.common_target, p2.common_target) < limit:
         return True
-    if segments:
+    if segments and _bounds_gap(p1.segment_bounds, p2.segment_bounds) < limit + BOUNDS_MARGIN:
         for s1 in p1.segments:
             for s2 in p2.segments:
                 if segment_distance(s1, s2) < limit:

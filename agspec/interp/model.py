@@ -12,6 +12,7 @@ from typing import Any
 import networkx as nx
 
 from agspec.formats.actions import DIRECTION_NAMES
+from agspec.interp import geometry
 from agspec.ir import topology, variants
 
 Cell = tuple[int, int]
@@ -194,6 +195,22 @@ class Model:
         return frozenset(
             (a, b) for a in self.cells for b in self.cells if topology.adjacent(a, b, self.topology, radius)
         )
+
+    @cached_property
+    def moore_neighbours(self) -> dict[Cell, tuple[tuple[int, str, Cell], ...]]:
+        """The in-grid Moore neighbours of each cell as (direction index, direction name, cell), in
+        O-ACTION-ENCODING direction order: the slots of handoff/receive actions and observations."""
+        cells = set(self.cells)
+        return {
+            c: tuple((d, DIRECTION_NAMES[d], (c[0] + di, c[1] + dj)) for d, (di, dj) in enumerate(DIRECTIONS)
+                     if (c[0] + di, c[1] + dj) in cells)
+            for c in self.cells
+        }
+
+    @cached_property
+    def plans(self) -> geometry.PlanMemo:
+        """Operation candidates' motion plans, remembered across epochs (a cache, not state)."""
+        return geometry.PlanMemo(self.profile)
 
     def adjacent(self, a: Cell, b: Cell) -> bool:
         """G_manip adjacency (D-TOPOLOGY), from agspec.ir.topology."""

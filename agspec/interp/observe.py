@@ -23,8 +23,8 @@ from agspec.formats.actions import (  # O-ACTION-ENCODING
 )
 from agspec.interp import geometry
 from agspec.interp.candidates import Candidate, xor_closed
-from agspec.interp.model import DIRECTION_NAMES, DIRECTIONS, Model
-from agspec.interp.state import Cell, State, cell_id
+from agspec.interp.model import Model
+from agspec.interp.state import Cell, Product, State, cell_id
 
 
 
@@ -41,6 +41,9 @@ class Options:
     supports: tuple[float, ...]  # support fraction of each operation option
 
 
+NO_OPTIONS = Options(picks=(), operations=(), supports=())
+
+
 def support_fraction(state: State, model: Model, cand: Candidate) -> float:
     """O-SUPPORT-FRACTION: recorded supporters / required robots (0 without a proposal or when hidden)."""
     if not model.support_visible:
@@ -49,13 +52,9 @@ def support_fraction(state: State, model: Model, cand: Candidate) -> float:
     return len(proposal.votes) / cand.size if proposal else 0.0
 
 
-def pick_options(state: State, model: Model, cell: Cell) -> list[dict[str, Any]]:
-    """O-PICK-OPTIONS: picks open to an input-column robot that is free, empty and not supporting."""
-    robot = state.robots[cell]
-    if cell[1] != 0 or not robot.free(state.t) or robot.holding is not None or robot.supports is not None:
-        return []
-    spacing = float(model.profile["spacing"])
-    reach = float(model.profile["reach"])
+def pickable_tokens(state: State, model: Model) -> list[tuple[Product, str, int, int]]:
+    """O-PICK-OPTIONS, the part that does not depend on the robot: (product, token, shelf row, stock)
+    of every raw token an open product still needs, has not taken and finds in stock."""
     out = []
     for product in state.products:
         if product.delivered:
@@ -66,22 +65,39 @@ def pick_options(state: State, model: Model, cell: Cell) -> list[dict[str, Any]]
             if token in product.raw_taken or token not in needed:
                 continue
             row = product.source_rows[token]
-            if cell[0] not in state.shelf_access.get(row, ()):
-                continue
             stock = state.shelves[row].get(token, 0)
-            if stock <= 0 or not geometry.reachable(cell, geometry.shelf_point(row, spacing), reach, spacing):
-                continue
-            out.append(
-                {
-                    "id": f"pick:{product.pid}:{token}:{row}",
-                    "product": product.pid,
-                    "recipe": product.recipe,
-                    "token": token,
-                    "shelf_row": row,
-                    "stock": stock / model.shelf_capacity,
-                    "_priority": product.spawn_time,
-                }
-            )
+            if stock > 0:
+                out.append((product, token, row, stock))
+    return out
+
+
+def pick_options(state: State, model: Model, cell: Cell,
+                 pickable: list[tuple[Product, str, int, int]] | None = None) -> list[dict[str, Any]]:
+    """O-PICK-OPTIONS: picks open to an input-column robot that is free, empty and not supporting:
+    the pickable tokens whose shelf row this robot may access and reach.  ``pickable`` is
+    :func:`pickable_tokens` of this state when the caller already has it."""
+    robot = state.robots[cell]
+    if cell[1] != 0 or not robot.free(state.t) or robot.holding is not None or robot.supports is not None:
+        return []
+    spacing = float(model.profile["spacing"])
+    reach = float(model.profile["reach"])
+    out = []
+    for product, token, row, stock in pickable_tokens(state, model) if pickable is None else pickable:
+        if cell[0] not in state.shelf_access.get(row, ()):
+            continue
+        if not geometry.reachable(cell, geometry.shelf_point(row, spacing), reach, spacing):
+            continue
+        out.append(
+            {
+                "id": f"pick:{product.pid}:{token}:{row}",
+                "product": product.pid,
+                "recipe": product.recipe,
+                "token": token,
+                "shelf_row": row,
+                "stock": stock / model.shelf_capacity,
+                "_priority": product.spawn_time,
+            }
+        )
     out.sort(key=lambda o: (o["_priority"], o["id"]))  # FIFO priority, then id string
     return out
 
@@ -94,15 +110,20 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
         for m in cand.members:
             per_robot[m].append((frac, cand.cid, cand))
     out = {}
+    pickable = pickable_tokens(state, model)
     for cell in model.cells:
         ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1]))
-        picks = pick_options(state, model, cell)
+        picks = pick_options(state, model, cell, pickable)
         if len(ops) > OP_SLOTS or len(picks) > PICK_SLOTS:
             raise SlotOverflow(
                 f"robot {cell_id(cell)} at t={state.t}: {len(picks)} pick options (limit {PICK_SLOTS}), "
                 f"{len(ops)} operation options (limit {OP_SLOTS})"
             )
-        out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops), supports=tuple(f for f, _, _ in ops))
+        if ops or picks:
+            out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
+                                supports=tuple(f for f, _, _ in ops))
+        else:
+            out[cell] = NO_OPTIONS  # most robots, most epochs (Options are immutable, so one serves all)
     return out
 
 
@@ -123,15 +144,14 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
         mask[OP0 + k] = True
     if robot.supports is not None:
         return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
-    in_grid = [(d, (cell[0] + di, cell[1] + dj)) for d, (di, dj) in enumerate(DIRECTIONS)]
-    in_grid = [(d, c) for d, c in in_grid if c in state.robots]
+    in_grid = model.moore_neighbours[cell]
     if robot.holding is None:
         for k in range(len(options.picks)):
             mask[PICK0 + k] = True
-        for d, _ in in_grid:
+        for d, _, _ in in_grid:
             mask[RECEIVE0 + d] = True
     else:
-        for d, _ in in_grid:
+        for d, _, _ in in_grid:
             mask[HANDOFF0 + d] = True
         product = state.products[robot.holding[0]]
         spacing = float(model.profile["spacing"])
@@ -168,48 +188,73 @@ def _held(state: State, model: Model, cell: Cell) -> dict[str, Any] | None:
     return {"product": item[0], "token": item[1], "final": item[1] == terminal}
 
 
-def observation(state: State, model: Model, cell: Cell, options: Options, mask: list[bool]) -> dict[str, Any]:
+@dataclass(frozen=True)
+class EpochViews:
+    """What every observation of one epoch shares, built once per epoch instead of once per observer:
+    each robot's public view (what its neighbours see) and each candidate's option record."""
+
+    robots: dict[Cell, tuple[str, dict[str, Any] | None, bool, str | None, str | None]]
+    options: dict[str, dict[str, Any]]
+
+
+def public_view(state: State, model: Model, cell: Cell) -> tuple[str, dict[str, Any] | None, bool, str | None, str | None]:
+    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels."""
+    robot = state.robots[cell]
+    return (cell_id(cell), _held(state, model, cell), not robot.free(state.t), robot.op_label, robot.role_label)
+
+
+def option_record(cand: Candidate) -> dict[str, Any]:
+    """O-OBSERVATION, operation option: the record without the observer's role and the support."""
+    return {
+        "id": cand.cid,
+        "product": cand.pid,
+        "recipe": cand.recipe,
+        "operation": cand.op.id,
+        "type": cand.op.type,
+        "kmin": cand.op.kmin,
+        "size": cand.size,
+        "role": None,
+        "members": [cell_id(m) for m in cand.members],
+        "duration": cand.plan.duration,
+        "min_reach_margin": cand.plan.min_reach_margin,
+        "support": None,
+    }
+
+
+def epoch_views(state: State, model: Model, candidates: list[Candidate]) -> EpochViews:
+    return EpochViews({c: public_view(state, model, c) for c in model.cells},
+                      {cand.cid: option_record(cand) for cand in candidates})
+
+
+def observation(state: State, model: Model, cell: Cell, options: Options, mask: list[bool],
+                views: EpochViews | None = None) -> dict[str, Any]:
     """O-OBSERVATION: own state, Moore neighbours' task-level state, options, mask, own support.
 
     No global state, no remote robots, no due dates or values, no supporter identities.
+    ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
     robot = state.robots[cell]
-    neighbours = []
-    for d, (di, dj) in enumerate(DIRECTIONS):
-        nc = (cell[0] + di, cell[1] + dj)
-        if nc not in state.robots:
-            continue
-        nb = state.robots[nc]
-        neighbours.append(
-            {
-                "dir": DIRECTION_NAMES[d],
-                "robot": cell_id(nc),
-                "holding": _held(state, model, nc),
-                "busy": not nb.free(state.t),
-                "failed": False,
-                "op": nb.op_label,
-                "role": nb.role_label,
-            }
-        )
+    around = [(direction, views.robots[nc] if views is not None else public_view(state, model, nc))
+              for _, direction, nc in model.moore_neighbours[cell]]
+    neighbours = [
+        {
+            "dir": direction,
+            "robot": rid,
+            "holding": None if held is None else dict(held),
+            "busy": busy,
+            "failed": False,
+            "op": op,
+            "role": role,
+        }
+        for direction, (rid, held, busy, op, role) in around
+    ]
     ops = []
     for cand, frac in zip(options.operations, options.supports):
-        role = next(r for m, r in cand.roles if m == cell)
-        ops.append(
-            {
-                "id": cand.cid,
-                "product": cand.pid,
-                "recipe": cand.recipe,
-                "operation": cand.op.id,
-                "type": cand.op.type,
-                "kmin": cand.op.kmin,
-                "size": cand.size,
-                "role": role,
-                "members": [cell_id(m) for m in cand.members],
-                "duration": cand.plan.duration,
-                "min_reach_margin": cand.plan.min_reach_margin,
-                "support": frac,
-            }
-        )
+        record = dict(views.options[cand.cid]) if views is not None else option_record(cand)
+        record["role"] = next(r for m, r in cand.roles if m == cell)
+        record["members"] = list(record["members"])
+        record["support"] = frac
+        ops.append(record)
     return {
         "robot": cell_id(cell),
         "t": state.t,

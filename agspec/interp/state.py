@@ -9,6 +9,7 @@ functions (:mod:`agspec.interp.snapshot`, :mod:`agspec.interp.observe`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 from agspec.interp.geometry import RobotPose
@@ -20,6 +21,7 @@ Item = tuple[int, str]  # (product id, token)
 # epochs t..t+D-1 and its effect applies on the transition into t+D (R-EXECUTION).
 
 
+@lru_cache(maxsize=4096)  # pure; robot ids are formatted for every observation and event of every tick
 def cell_id(cell: Cell) -> str:
     """Canonical robot id "i,j" (R-IDS)."""
     return f"{cell[0]},{cell[1]}"

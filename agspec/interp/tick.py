@@ -16,7 +16,7 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, logically_ready_occurrences, inputs_present
 from agspec.interp.metrics import MetricsAccumulator, capacity_snapshot
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, observation
+from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
 
@@ -100,7 +100,9 @@ class Simulator:
         if robot is not None:
             cell = tuple(int(x) for x in robot.split(","))
             return observation(self.state, self.model, cell, d.options[cell], d.masks[cell])
-        return {cell_id(c): observation(self.state, self.model, c, d.options[c], d.masks[c]) for c in self.model.cells}
+        views = epoch_views(self.state, self.model, d.candidates)
+        return {cell_id(c): observation(self.state, self.model, c, d.options[c], d.masks[c], views)
+                for c in self.model.cells}
 
     def masks(self) -> dict[str, list[bool]]:
         return {cell_id(c): list(m) for c, m in self.decision.masks.items()}

@@ -13,7 +13,8 @@ Every feature lies in [0, 1].  String features are hashed with the original rele
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
+from functools import lru_cache
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 
@@ -30,6 +31,7 @@ ROBOT_STATE_DIM, GLOBAL_STATE_DIM, PRODUCT_FIXED_DIM = 19, 6, 6
 assert N_ACTIONS == 114
 
 
+@lru_cache(maxsize=65536)  # pure; the same ids and labels are hashed for every agent of every step
 def str_hash(text: str | None) -> float:
     """The original release's string feature: a polynomial fold modulo 1009, scaled to [0, 1]."""
     if not text:
@@ -49,6 +51,10 @@ def _saturate(x: float) -> float:
     return x / (1.0 + x) if x > 0 else 0.0
 
 
+def _unit(x: float) -> float:
+    return min(max(float(x), 0.0), 1.0)
+
+
 @dataclass(frozen=True)
 class PublicInfo:
     """Public benchmark information the encoding may use (O-OBSERVATION: recipes, profile, grid)."""
@@ -63,6 +69,10 @@ class PublicInfo:
         raw = frozenset(tok for r in model.recipes.values() for tok in r.raw)
         return PublicInfo(model.rows, model.cols, float(model.profile["reach"]), raw)
 
+    @property
+    def spans(self) -> tuple[int, int]:
+        return max(self.rows - 1, 1), max(self.cols - 1, 1)
+
 
 def token_class(item: Mapping[str, Any] | None, pub: PublicInfo) -> int:
     """0 nothing held, 1 raw token, 2 intermediate, 3 terminal (final) token."""
@@ -73,10 +83,39 @@ def token_class(item: Mapping[str, Any] | None, pub: PublicInfo) -> int:
     return 1 if item["token"] in pub.raw_tokens else 2
 
 
-def _item_features(out: np.ndarray, at: int, item: Mapping[str, Any] | None, pub: PublicInfo) -> None:
-    out[at + token_class(item, pub)] = 1.0
-    if item is not None:
-        out[at + 4] = (int(item["product"]) % 256) / 255.0
+# The features of one robot, one pick slot and one operation slot.  Both encoders (the per-record
+# encode_observation and the all-agents encoder of agspec.marl.batch) build their slots with these
+# functions, so the two cannot drift apart.
+
+
+def robot_features(item_class: int, product: int | None, busy: bool, failed: bool, op: str | None,
+                   role: str | None) -> list[float]:
+    """A neighbour slot (NEIGHBOUR_DIM): present, held-item class one-hot (4), product, busy, failed,
+    hashed activity and role labels; its entries 1..6 are also the self block's first six values."""
+    row = [1.0, 0.0, 0.0, 0.0, 0.0, (product % 256) / 255.0 if product is not None else 0.0,
+           float(busy), float(failed), str_hash(op), str_hash(role)]
+    row[1 + item_class] = 1.0
+    return row
+
+
+def pick_features(option: Mapping[str, Any], span_r: int) -> list[float]:
+    """A pick slot (PICK_DIM)."""
+    return [1.0, str_hash(option["token"]), _frac(option["shelf_row"], span_r), _unit(option["stock"]),
+            (int(option["product"]) % 256) / 255.0, str_hash(option["recipe"])]
+
+
+def operation_features(operation: str, op_type: str, kmin: int, size: int, role: str, duration: float,
+                       margin: float, support: float, product: int, recipe: str, pending: bool,
+                       members: Iterable[tuple[int, int]], me: tuple[int, int], pub: PublicInfo) -> list[float]:
+    """An operation slot (OP_DIM); members are offsets relative to the robot, 0.5 = same row/column."""
+    span_r, span_c = pub.spans
+    row = [1.0, str_hash(operation), str_hash(op_type), _frac(kmin, 4), _frac(size, 4), str_hash(role),
+           _saturate(float(duration)), _frac(float(margin), pub.reach), _unit(support), (int(product) % 256) / 255.0,
+           str_hash(recipe), float(pending), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    for m, (mi, mj) in enumerate(list(members)[:4]):
+        row[12 + 2 * m] = 0.5 + (mi - me[0]) / (2 * span_r)
+        row[13 + 2 * m] = 0.5 + (mj - me[1]) / (2 * span_c)
+    return row
 
 
 def _cell(robot_id: str) -> tuple[int, int]:
@@ -84,15 +123,18 @@ def _cell(robot_id: str) -> tuple[int, int]:
     return int(i), int(j)
 
 
+def _held_features(item: Mapping[str, Any] | None, pub: PublicInfo) -> tuple[int, int | None]:
+    return token_class(item, pub), (int(item["product"]) if item is not None else None)
+
+
 def encode_observation(obs: Mapping[str, Any], pub: PublicInfo) -> np.ndarray:
     """A-OBS-VECTOR: the structured observation of one robot as OBS_DIM float32 values in [0, 1]."""
     out = np.zeros(OBS_DIM, dtype=np.float32)
     me = _cell(obs["robot"])
-    span_r, span_c = max(pub.rows - 1, 1), max(pub.cols - 1, 1)
+    span_r, span_c = pub.spans
     # self block (12)
-    _item_features(out, 0, obs["holding"], pub)
-    out[5] = float(obs["busy"])
-    out[6] = float(obs["failed"])
+    own = robot_features(*_held_features(obs["holding"], pub), obs["busy"], obs["failed"], None, None)
+    out[0:7] = own[1:8]
     out[7] = float(obs["supports"] is not None)
     out[8] = str_hash(obs["supports"])
     out[9] = _frac(me[0], span_r)
@@ -102,12 +144,8 @@ def encode_observation(obs: Mapping[str, Any], pub: PublicInfo) -> np.ndarray:
     base = SELF_DIM
     for nb in obs["neighbours"]:
         at = base + DIRECTION_INDEX[nb["dir"]] * NEIGHBOUR_DIM
-        out[at] = 1.0
-        _item_features(out, at + 1, nb["holding"], pub)
-        out[at + 6] = float(nb["busy"])
-        out[at + 7] = float(nb["failed"])
-        out[at + 8] = str_hash(nb["op"])
-        out[at + 9] = str_hash(nb["role"])
+        out[at:at + NEIGHBOUR_DIM] = robot_features(*_held_features(nb["holding"], pub), nb["busy"], nb["failed"],
+                                                    nb["op"], nb["role"])
     # option counts (2)
     base += 8 * NEIGHBOUR_DIM
     picks, ops = obs["pick_options"], obs["operation_options"]
@@ -116,33 +154,13 @@ def encode_observation(obs: Mapping[str, Any], pub: PublicInfo) -> np.ndarray:
     # pick slots (32 x 6)
     base += COUNTS_DIM
     for k, p in enumerate(picks):
-        at = base + k * PICK_DIM
-        out[at] = 1.0
-        out[at + 1] = str_hash(p["token"])
-        out[at + 2] = _frac(p["shelf_row"], span_r)
-        out[at + 3] = min(max(float(p["stock"]), 0.0), 1.0)
-        out[at + 4] = (int(p["product"]) % 256) / 255.0
-        out[at + 5] = str_hash(p["recipe"])
+        out[base + k * PICK_DIM:base + (k + 1) * PICK_DIM] = pick_features(p, span_r)
     # operation slots (64 x 20)
     base += PICK_SLOTS * PICK_DIM
     for k, o in enumerate(ops):
-        at = base + k * OP_DIM
-        out[at] = 1.0
-        out[at + 1] = str_hash(o["operation"])
-        out[at + 2] = str_hash(o["type"])
-        out[at + 3] = _frac(o["kmin"], 4)
-        out[at + 4] = _frac(o["size"], 4)
-        out[at + 5] = str_hash(o["role"])
-        out[at + 6] = _saturate(float(o["duration"]))
-        out[at + 7] = _frac(float(o["min_reach_margin"]), pub.reach)
-        out[at + 8] = min(max(float(o["support"]), 0.0), 1.0)
-        out[at + 9] = (int(o["product"]) % 256) / 255.0
-        out[at + 10] = str_hash(o["recipe"])
-        out[at + 11] = float(o["id"] == obs["supports"])
-        for m, member in enumerate(o["members"][:4]):  # offsets relative to the robot, 0.5 = same
-            mi, mj = _cell(member)
-            out[at + 12 + 2 * m] = 0.5 + (mi - me[0]) / (2 * span_r)
-            out[at + 13 + 2 * m] = 0.5 + (mj - me[1]) / (2 * span_c)
+        out[base + k * OP_DIM:base + (k + 1) * OP_DIM] = operation_features(
+            o["operation"], o["type"], o["kmin"], o["size"], o["role"], o["duration"], o["min_reach_margin"],
+            o["support"], o["product"], o["recipe"], o["id"] == obs["supports"], map(_cell, o["members"]), me, pub)
     return out
 
 

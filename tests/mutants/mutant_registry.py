@@ -358,8 +358,8 @@ def obs_leak(session: Session) -> None:
 
     orig = observe.observation
 
-    def observation(state, model, cell, options, mask):
-        obs = orig(state, model, cell, options, mask)
+    def observation(state, model, cell, options, mask, views=None):
+        obs = orig(state, model, cell, options, mask, views)
         for other in sorted(state.robots):
             dist = max(abs(other[0] - cell[0]), abs(other[1] - cell[1]))
             if dist == 2:  # BUG: radius 2
