@@ -342,7 +342,7 @@ def mismatches(
     case: Case,
     t_after: int,
     state: Mapping[str, Any],
-    events: Sequence[Mapping[str, Any]],
+    events: Sequence[Mapping[str, Any]] | None,
     *,
     observations: Mapping[str, Any] | None = None,
     done: bool | None = None,
@@ -350,7 +350,9 @@ def mismatches(
     """Every failed assertion of ``case`` after the step applied at epoch ``t_after``.
 
     Observation assertions are skipped when ``observations`` is None (the implementation lacks the
-    capability, see ``Case.needs_observations``); ``done`` assertions when ``done`` is None.
+    capability, see ``Case.needs_observations``), event assertions when ``events`` is None (no
+    ``events`` capability: not checked at this level, F-CONFORM-LEVELS); ``done`` assertions when
+    ``done`` is None.
     """
     out: list[Mismatch] = []
     file = _show_path(case.source)
@@ -373,12 +375,12 @@ def mismatches(
             got = resolve_pointer(state, pointer)
             if got is not _MISSING:
                 add("absent", pointer, _MISSING, got, f"state {pointer}: expected absent, got {_show(got)}")
-        patterns = exp.get("events", [])
+        patterns = exp.get("events", []) if events is not None else []
         for i in _match_events(patterns, events):
             near = [ev for ev in events if ev.get("type") == patterns[i].get("type")]
             add("event", "", patterns[i], near or list(events),
                 f"no event matches {_show(patterns[i])}; events of this type: {_show(near)}")
-        for pattern in exp.get("no_events", []):
+        for pattern in exp.get("no_events", []) if events is not None else []:
             hits = [ev for ev in events if event_matches(pattern, ev)]
             if hits:
                 add("no_event", "", pattern, hits, f"unexpected event {_show(hits[0])} (matches {_show(pattern)})")

@@ -234,7 +234,8 @@ def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
     path = directory / f"{safe}.repro.json"
-    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False) + "\n", encoding="utf-8")
+    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",
+                    encoding="utf-8")
     return path
 
 
@@ -245,14 +246,18 @@ class ReproError(ValueError):
 def load_reproducer(path: str | Path) -> dict[str, Any]:
     """Read and check a reproducer file (F-REPRO); errors name the file and the offending field."""
     path = Path(path)
+    from agspec.conform.protocol import loads
+
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ReproError(f"{path}: file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ReproError(f"{path}: cannot read: {exc}") from None
     except json.JSONDecodeError as exc:
         raise ReproError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    except ValueError as exc:  # NaN / Infinity, nested too deeply
+        raise ReproError(f"{path}: not JSON: {exc}") from None
     if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
         raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
     inst = data.get("instance")

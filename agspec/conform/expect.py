@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from agspec.conform.protocol import validate
+from agspec.conform.protocol import loads, validate
 
 
 class ExpectError(ValueError):
@@ -47,11 +47,13 @@ def load_expectations(path: str | Path) -> dict[str, Expected]:
         raise ExpectError(f"{path}: cannot read: {exc}") from None
     try:
         if path.suffix == ".json":
-            data = json.loads(text)
+            data = loads(text)
         else:
             data = yaml.safe_load(text)
     except json.JSONDecodeError as exc:
         raise ExpectError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    except ValueError as exc:  # NaN / Infinity, nested too deeply
+        raise ExpectError(f"{path}: not JSON: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else str(path)

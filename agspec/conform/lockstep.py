@@ -20,14 +20,17 @@ from __future__ import annotations
 import time
 import traceback
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from agspec.conform import compare, invariants
 from agspec.conform.cases import mismatches
 from agspec.conform.impl import Implementation
 from agspec.conform.items import Item
-from agspec.conform.protocol import ProtocolError
+from agspec.conform.protocol import ProtocolError, Unsupported
+
+# F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
+LEVEL_PARTS = ("events", "state", "observations", "masks")
 
 
 @dataclass(frozen=True)
@@ -49,11 +52,14 @@ class Result:
     message: str | None = None
     failure: dict[str, Any] | None = None
     ticks: int = 0
-    states: int = 0
+    states: int = 0  # replies compared (any part)
+    compared: dict[str, int] = field(default_factory=lambda: {p: 0 for p in LEVEL_PARTS})
     invariant_checks: int = 0
+    not_checked: dict[str, str] = field(default_factory=dict)  # invariant ID -> why (F-CONFORM-LEVELS)
     expectations: int = 0
     duration_s: float = 0.0
     rendered: str | None = None  # the CommonMark-style text of a failure
+    skip_reason: str | None = None  # the simulator's reason when it answered `unsupported`
 
     def record(self, outcome: str | None = None, expected: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The report line (F-REPORT) of this result."""
@@ -64,7 +70,7 @@ class Result:
             "outcome": outcome or self.outcome, "raw_outcome": self.outcome, "message": self.message,
             "duration_s": round(self.duration_s, 6), "ticks": self.ticks,
             "checks": {"states": self.states, "invariant_checks": self.invariant_checks,
-                       "expectations": self.expectations},
+                       "expectations": self.expectations, "compared": dict(self.compared)},
         }
         if expected is not None:
             rec["expected"] = dict(expected)
@@ -172,9 +178,11 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         ctx = invariants.Context.from_instance(item.instance) if use_state else None
         prev_rec: dict[str, Any] | None = None
         prev_obs = reply.get("observations")
+        # events the simulator did not declare are null, never [] (INV-* then derive them from the states)
+        events_of = (lambda r: r.get("events") or []) if caps.get("events") else (lambda r: None)
         if ctx is not None:
             prev_rec = {"type": "header", "instance": item.instance, "execution_seed": item.execution_seed,
-                        "state": reply.get("state"), "events": reply.get("events") or []}
+                        "state": reply.get("state"), "events": events_of(reply)}
         if _check(res, item, ref, -1, ref.expected(ref.sim.reset_events), reply, parts, ctx, None, prev_rec, opts,
                   sent, history, impl):
             return res
@@ -189,7 +197,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             if ctx is not None:
                 rec = {"type": "tick", "t": t, "actions": _applied(reply, actions, ref.robots),
                        "chosen": {r: int(actions.get(r, 0)) for r in ref.robots},
-                       "events": reply.get("events") or [], "state": reply.get("state")}
+                       "events": events_of(reply), "state": reply.get("state")}
                 if prev_obs is not None:
                     rec["observations"] = prev_obs
             expected = ref.expected(step.events, step.applied if "applied" in reply else None)
@@ -199,6 +207,10 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             prev_rec, prev_obs = rec, reply.get("observations")
             if ref.sim.done:
                 break
+        return res
+    except Unsupported as exc:  # F-PROTOCOL-UNSUPPORTED: skipped with the simulator's reason
+        res.outcome, res.message = "skip", f"unsupported: {exc.reason}"
+        res.skip_reason = exc.reason
         return res
     except ProtocolError as exc:
         res.outcome = "error"
@@ -226,6 +238,8 @@ def _check(res: Result, item: Item, ref: _Reference, t: int, expected: dict[str,
     parts = [p for p in parts if p not in ("done", "applied") or p in reply]
     div = compare.compare_reply(t, expected, reply, parts, opts.tolerance)
     res.states += 1
+    for part in LEVEL_PARTS:
+        res.compared[part] += part in parts
     violations: list[invariants.Violation] = []
     if ctx is not None:
         before = sum(ctx.counts.values())
@@ -237,7 +251,8 @@ def _check(res: Result, item: Item, ref: _Reference, t: int, expected: dict[str,
         exps = item.case.expectations_at(t)
         if exps:
             res.expectations += len(exps)
-            found = mismatches(item.case, t, reply.get("state") or {}, reply.get("events") or [],
+            found = mismatches(item.case, t, reply.get("state") or {},
+                               (reply.get("events") or []) if impl.capabilities.get("events") else None,
                                observations=reply.get("observations") if impl.capabilities.get("observations") else None,
                                done=reply.get("done"))
             failed_expectations = [str(m) for m in found]
@@ -307,4 +322,4 @@ def _render_error(item: Item, exc: ProtocolError, tick: int) -> str:
     return text
 
 
-__all__ = ["Options", "Result", "run_item"]
+__all__ = ["Options", "Result", "run_item", "LEVEL_PARTS"]

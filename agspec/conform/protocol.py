@@ -28,7 +28,10 @@ PROTOCOL = "agspec-protocol/1"
 COMMANDS = ("start", "load", "reset", "step", "stop")
 
 # F-PROTOCOL-ERRORS: error categories (what the outcome "error" reports) and their codes.
-CRASH, TIMEOUT, PROTOCOL_ERROR = "crash", "timeout", "protocol"
+CRASH, TIMEOUT, PROTOCOL_ERROR, GAVE_UP = "crash", "timeout", "protocol", "gave_up"
+UNSUPPORTED = "unsupported"  # error.code of a refusal that is not an error (F-PROTOCOL-UNSUPPORTED)
+UNSUPPORTED_COMMANDS = ("load", "reset")  # a refusal elsewhere could hide a divergence: an error_reply
+MAX_DEPTH = 64  # F-PROTOCOL-ERRORS: no protocol message nests deeper (a state is < 10 levels)
 CODES: dict[str, tuple[str, str]] = {
     # code: (category, meaning)
     "spawn": (CRASH, "the simulator command cannot be started"),
@@ -44,6 +47,9 @@ CODES: dict[str, tuple[str, str]] = {
     "error_reply": (PROTOCOL_ERROR, "the simulator answered ok: false"),
     "handshake": (PROTOCOL_ERROR, "the start reply announces another protocol version"),
     "schema": (PROTOCOL_ERROR, "a message violates its schema (--validate-protocol)"),
+    "non_finite": (PROTOCOL_ERROR, "a reply contains NaN or Infinity, which JSON does not have"),
+    "too_deep": (PROTOCOL_ERROR, f"a reply nests arrays/objects deeper than {MAX_DEPTH} levels"),
+    "gave_up": (GAVE_UP, "the harness stopped restarting a simulator that failed too often"),
 }
 
 
@@ -64,6 +70,17 @@ class ProtocolError(Exception):
 
     def __str__(self) -> str:
         return f"{self.kind}/{self.code}: {self.message}"
+
+
+class Unsupported(Exception):
+    """F-PROTOCOL-UNSUPPORTED: the simulator declines an instance; the item is skipped with ``reason``.
+
+    Not a failure of the simulator: no restart, nothing counted towards giving up.
+    """
+
+    def __init__(self, cmd: str, reason: str):
+        super().__init__(reason)
+        self.cmd, self.reason = cmd, reason
 
 
 # --------------------------------------------------------------------------- requests
@@ -100,6 +117,47 @@ def error_reply(seq: Any, code: str, message: str) -> dict[str, Any]:
     return {"seq": seq, "ok": False, "error": {"code": code, "message": message}}
 
 
+class NonFinite(ValueError):
+    """A JSON text with NaN / Infinity / -Infinity, which RFC 8259 does not allow (F-PROTOCOL-ERRORS)."""
+
+
+class TooDeep(ValueError):
+    """A JSON value nested deeper than :data:`MAX_DEPTH` (F-PROTOCOL-ERRORS)."""
+
+
+def _no_constant(name: str) -> Any:
+    raise NonFinite(f"non-finite number {name} (JSON has no NaN or Infinity)")
+
+
+def depth(value: Any, limit: int = MAX_DEPTH) -> int:
+    """Nesting depth of a decoded JSON value, iteratively (no recursion); stops counting past ``limit``."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        node, d = stack.pop()
+        if isinstance(node, dict):
+            node = list(node.values())
+        if isinstance(node, list):
+            deepest = max(deepest, d)
+            if d <= limit:
+                stack.extend((x, d + 1) for x in node if isinstance(x, (dict, list)))
+    return deepest
+
+
+def loads(text: str | bytes) -> Any:
+    """Decode one JSON text strictly: the one decoder for replies, traces, reproducers and expectations.
+
+    Raises ``json.JSONDecodeError`` (not JSON), :class:`NonFinite` (NaN, Infinity) or :class:`TooDeep`
+    (nested deeper than :data:`MAX_DEPTH`; also when the decoder itself runs out of stack).
+    """
+    try:
+        value = json.loads(text, parse_constant=_no_constant)
+    except RecursionError:
+        raise TooDeep(f"nested deeper than {MAX_DEPTH} levels") from None
+    if depth(value) > MAX_DEPTH:
+        raise TooDeep(f"nested deeper than {MAX_DEPTH} levels")
+    return value
+
+
 def encode(msg: Any) -> str:
     """One protocol line: compact JSON, no NaN, UTF-8 kept."""
     return json.dumps(msg, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
@@ -119,6 +177,9 @@ def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = N
     ok = reply.get("ok")
     if ok is False:
         err = reply.get("error") if isinstance(reply.get("error"), dict) else {}
+        if err.get("code") == UNSUPPORTED and cmd in UNSUPPORTED_COMMANDS:
+            reason = err.get("message")
+            raise Unsupported(cmd, reason if isinstance(reason, str) and reason.strip() else "(no reason given)")
         raise ProtocolError("error_reply", f"the simulator refused `{cmd}`: "
                                            f"[{err.get('code', '?')}] {err.get('message', '(no message)')}",
                             detail=err)
@@ -283,7 +344,8 @@ def validate_reply(cmd: str, msg: Any) -> list[SchemaProblem]:
 
 
 __all__ = [
-    "PROTOCOL", "COMMANDS", "CODES", "ProtocolError", "SchemaProblem", "request", "start", "load", "reset", "step",
+    "PROTOCOL", "COMMANDS", "CODES", "MAX_DEPTH", "NonFinite", "TooDeep", "loads", "depth",
+    "Unsupported", "UNSUPPORTED", "GAVE_UP", "ProtocolError", "SchemaProblem", "request", "start", "load", "reset", "step",
     "stop", "error_reply", "encode", "check_reply", "normalize_capabilities", "validator", "validate",
     "validate_request", "validate_reply", "schema_id",
 ]

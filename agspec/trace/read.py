@@ -20,6 +20,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from agspec.conform.protocol import loads as strict_loads
 from agspec.diagnostics import Diagnostic
 
 TRACE_CODES = {
@@ -30,6 +31,7 @@ TRACE_CODES = {
     "AG605": "the footer disagrees with the trace (tick count) or declares the execution incomplete",
     "AG606": "the trace is empty",
     "AG607": "the header fingerprint is not the fingerprint of its instance",
+    "AG608": "the trace stops before its horizon without terminating, or runs past it (agspec check)",
 }
 
 
@@ -68,9 +70,12 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
                 if not text.strip():
                     continue
                 try:
-                    rec = json.loads(text)
+                    rec = strict_loads(text)
                 except json.JSONDecodeError as exc:
                     diags.append(_diag("AG003", f"not valid JSON: {exc.msg}", file, lineno, col=exc.colno))
+                    continue
+                except ValueError as exc:  # NaN / Infinity, or nested too deeply (F-TRACE: no NaN)
+                    diags.append(_diag("AG003", f"not valid JSON: {exc}", file, lineno))
                     continue
                 if not isinstance(rec, dict):
                     diags.append(_diag("AG003", "a trace record must be a JSON object", file, lineno, col=1))

@@ -82,7 +82,8 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
         ctl_record = {"name": ctl.name, "information": ctl.information} if ctl is not None else {"name": "script"}
         writer.header(instance=instance, fingerprint=fingerprint(instance), execution_seed=seed,
                       controller=ctl_record, initial_state=reply.get("state"), initial_events=reply.get("events") or [],
-                      implementation=info.get("implementation") or {"name": impl_spec, "version": "?"})
+                      implementation=info.get("implementation") or {"name": impl_spec, "version": "?"},
+                      horizon=min(ticks, len(actions)) if actions is not None else ticks)
         obs = reply.get("observations") if own_obs else (ref.observe() if ref is not None else None)
         limit = min(ticks, len(actions)) if actions is not None else ticks
         for t in range(limit):

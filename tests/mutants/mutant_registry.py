@@ -24,6 +24,7 @@ This module is test code: nothing in the product imports it.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import sys
 import time
@@ -44,6 +45,11 @@ class Session:
     # callables(msg, reply) -> reply, or a str written verbatim instead of the JSON reply
     after: list[Callable[[dict, dict], Any]] = field(default_factory=list)
     sim: Any = None  # the agspec.interp.tick.Simulator of the loaded instance
+    # the capabilities declared in the start reply (F-PROTOCOL); the reply carries only these parts
+    capabilities: dict[str, bool] = field(default_factory=lambda: {"observations": True, "masks": True,
+                                                                   "privileged_state": True, "events": True})
+    # instance -> reason to answer `unsupported` to its load (F-PROTOCOL-UNSUPPORTED), or None to accept it
+    refuse: Callable[[dict], str | None] | None = None
 
     def on(self, cmd: str, fn: Callable[[dict, "Session"], None]) -> None:
         self.before.setdefault(cmd, []).append(fn)
@@ -444,6 +450,123 @@ def wrong_seq(session: Session) -> None:
         return rep
 
     session.after.append(reply)
+
+
+# =============================================================================================
+# verdicts: capabilities, levels, malformed numbers and nesting, nondeterminism (F-CONFORM-LEVELS,
+# F-PROTOCOL-ERRORS, F-CONFORM-NONDETERMINISM)
+
+
+@mutant("events-only-state-lie", "F-CONFORM-LEVELS (state not proven)", "level", ("level:state",),
+        Workload("pair-1x2-flat.json", "greedy", 12))
+def events_only_state_lie(session: Session) -> None:
+    """Declares events only and sends a state whose `delivered` is wrong: proven at level events, never `state`."""
+    session.capabilities.update(privileged_state=False, observations=False, masks=False)
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") in ("reset", "step") and rep.get("ok") and session.sim is not None:
+            from agspec.interp.snapshot import global_state
+
+            state = global_state(session.sim.state)
+            state["delivered"] += 1  # BUG: the undeclared state lies
+            return {**rep, "state": state}
+        return rep
+
+    session.after.append(reply)
+
+
+@mutant("non-finite", "F-PROTOCOL-ERRORS (NaN in a reply)", "error", ("protocol/non_finite",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def non_finite(session: Session) -> None:
+    """A NaN in the reply to the step of epoch 1 (bare `NaN` on the wire)."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 2:
+            return json.dumps({**rep, "t": float("nan")}, separators=(",", ":"))
+        return rep
+
+    session.after.append(reply)
+
+
+@mutant("deep-nesting", "F-PROTOCOL-ERRORS (nesting)", "error", ("protocol/too_deep",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def deep_nesting(session: Session) -> None:
+    """The reply to the step of epoch 1 carries an event nested 200,000 arrays deep."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 2:
+            head = json.dumps({k: v for k, v in rep.items() if k != "events"}, separators=(",", ":"))[:-1]
+            return head + ',"events":' + "[" * 200_000 + "]" * 200_000 + "}"
+        return rep
+
+    session.after.append(reply)
+
+
+_FIRST_EPISODE = {"done": False}
+
+
+@mutant("nondeterministic", "F-CONFORM-NONDETERMINISM", "fail", ("nondeterministic",),
+        Workload("pair-1x2-flat.json", "greedy", 8))
+def nondeterministic(session: Session) -> None:
+    """Diverges (WIP off by one after tick 2) in the first episode it runs only: a replay does not reproduce it."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 3 and not _FIRST_EPISODE["done"]:
+            _FIRST_EPISODE["done"] = True
+            return {**rep, "state": {**rep["state"], "wip": rep["state"]["wip"] + 1}}
+        return rep
+
+    session.after.append(reply)
+
+
+# =============================================================================================
+# honest simulators that implement less than everything: they must pass at their level
+
+
+@dataclass(frozen=True)
+class Honest:
+    name: str
+    level: str  # the conformance level (F-CONFORM-LEVELS) the harness must report for it
+    description: str
+    apply: Callable[[Session], None]
+    workload: Workload
+    skips: int = 0  # items the harness must skip on its workload (F-PROTOCOL-UNSUPPORTED)
+
+
+HONEST: dict[str, Honest] = {}
+
+
+def honest(name: str, level: str, workload: Workload, skips: int = 0):
+    def register(fn: Callable[[Session], None]) -> Callable[[Session], None]:
+        HONEST[name] = Honest(name, level, (fn.__doc__ or "").strip().splitlines()[0], fn, workload, skips)
+        return fn
+
+    return register
+
+
+@honest("state-only", "state", Workload("pair-1x2-flat.json", "greedy", 24))
+def state_only(session: Session) -> None:
+    """Privileged state only, no events: its handoffs start and complete within one tick (zero approach)."""
+    session.capabilities.update(events=False, observations=False, masks=False)
+
+
+@honest("events-only", "events", Workload("pair-1x2-flat.json", "greedy", 24))
+def events_only(session: Session) -> None:
+    """Events only: no state, observations or masks."""
+    session.capabilities.update(privileged_state=False, observations=False, masks=False)
+
+
+@honest("official-only", "full", Workload("catalogue:flow-easy:0", "greedy", 6), skips=1)
+def official_only(session: Session) -> None:
+    """Implements only the official catalogue instances: answers `unsupported` to any other instance."""
+    session.refuse = lambda inst: (None if str(inst.get("id", "")).startswith("ag32-")
+                                   else "only the official AssemblyGrid v1 catalogue instances are implemented")
+
+
+def apply_honest(name: str, session: Session) -> None:
+    if name not in HONEST:
+        raise KeyError(f"unknown honest variant {name!r}; known: {', '.join(sorted(HONEST))}")
+    HONEST[name].apply(session)
 
 
 def apply(name: str, session: Session) -> None:
