@@ -93,7 +93,8 @@ class Implementation:
             if problems:  # a request we built is wrong: an agspec bug, reported loudly
                 raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
         try:
-            reply = self._exchange(msg, self.start_timeout if cmd == "start" else None)
+            # start and load may build a whole model (interpreter start-up, instance compilation)
+            reply = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
             if self.on_message:
                 self.on_message("<-", cmd, reply)
             if self.validate:
