@@ -61,11 +61,12 @@ def test_honest_simulator_passes_its_workload_at_its_level(name):
     assert summary.footer()["conformant"] == (h.level == "full")  # plain "conformant" only at full level
 
 
-@pytest.mark.parametrize("name", ["state-only", "events-only"])
+@pytest.mark.parametrize("name", ["state-only", "events-only", "own-bookkeeping"])
 def test_partial_simulators_pass_the_whole_suite_and_episodes(name):
     """No false "nonconformant": a state-only engine (its handoffs start and complete in one tick, so
-    their events exist only as state changes) and an events-only engine pass every suite case and
-    lockstep episode they can be judged on; what they cannot be judged on is skipped, never failed."""
+    their events exist only as state changes), an events-only engine and an engine with its own
+    bookkeeping (diagnostic fields differ, behaviour is the same) pass every suite case and lockstep
+    episode they can be judged on; what they cannot be judged on is skipped, never failed."""
     items = [from_case(c) for c in load_suite()] + catalogue_episodes(1, 30)
     summary = runner.run(items, honest(name), timeout=15.0, jobs=2)
     bad = [(r.item.id, o, r.message) for r, o in summary.results if o not in ("pass", "skip")]

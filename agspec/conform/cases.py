@@ -49,6 +49,7 @@ import yaml
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
+from agspec.conform.compare import is_diagnostic, iter_differences
 from agspec.resources import conformance_dir, schemas_dir
 
 ACTION_LIMIT = 114  # O-ACTION-ENCODING: 0 .. 113
@@ -346,13 +347,14 @@ def mismatches(
     *,
     observations: Mapping[str, Any] | None = None,
     done: bool | None = None,
+    diagnostic: bool = True,
 ) -> list[Mismatch]:
     """Every failed assertion of ``case`` after the step applied at epoch ``t_after``.
 
     Observation assertions are skipped when ``observations`` is None (the implementation lacks the
     capability, see ``Case.needs_observations``), event assertions when ``events`` is None (no
     ``events`` capability: not checked at this level, F-CONFORM-LEVELS); ``done`` assertions when
-    ``done`` is None.
+    ``done`` is None; state assertions on diagnostic fields unless ``diagnostic`` (F-TRACE-STATE).
     """
     out: list[Mismatch] = []
     file = _show_path(case.source)
@@ -366,12 +368,21 @@ def mismatches(
             out.append(Mismatch(kind, t_after, pointer, expected, actual, file, line, f"{where}: {message}"))
 
         for pointer, want in exp.get("state", {}).items():
+            if not diagnostic and is_diagnostic(pointer):
+                continue
             got = resolve_pointer(state, pointer)
-            diff = first_difference(want, got, pointer) if got is not _MISSING else (pointer, want, _MISSING)
+            if got is _MISSING:
+                diff = (pointer, want, _MISSING)
+            elif diagnostic:
+                diff = first_difference(want, got, pointer)
+            else:  # F-TRACE-STATE: differences inside diagnostic fields do not count
+                diff = next((d for d in iter_differences(want, got, pointer) if not is_diagnostic(d[0])), None)
             if diff:
                 at, e, a = diff
                 add("state", at, e, a, f"state {at or '(whole state)'}: expected {_show(e)}, got {_show(a)}")
         for pointer in exp.get("absent", []):
+            if not diagnostic and is_diagnostic(pointer):
+                continue
             got = resolve_pointer(state, pointer)
             if got is not _MISSING:
                 add("absent", pointer, _MISSING, got, f"state {pointer}: expected absent, got {_show(got)}")

@@ -215,10 +215,13 @@ def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = N
         raise ProtocolError("handshake", f"the simulator speaks {reply.get('protocol')!r}, the harness {PROTOCOL!r}")
 
 
+CAPABILITIES = ("observations", "masks", "privileged_state", "events", "diagnostic_state")
+
+
 def normalize_capabilities(caps: Any) -> dict[str, bool]:
-    """Declared capabilities with the four flags of F-PROTOCOL (absent flags are false)."""
+    """Declared capabilities with the flags of F-PROTOCOL (absent flags are false)."""
     caps = caps if isinstance(caps, dict) else {}
-    return {k: bool(caps.get(k, False)) for k in ("observations", "masks", "privileged_state", "events")}
+    return {k: bool(caps.get(k, False)) for k in CAPABILITIES}
 
 
 # --------------------------------------------------------------------------- schemas

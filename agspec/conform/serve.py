@@ -36,7 +36,7 @@ class Server:
 
     def __init__(self, observations: bool = True, masks: bool = True):
         self.capabilities = {"observations": bool(observations), "masks": bool(masks),
-                             "privileged_state": True, "events": True}
+                             "privileged_state": True, "events": True, "diagnostic_state": True}
         self.sim = None
         self.instance: dict[str, Any] | None = None
         self.started = False

@@ -47,7 +47,8 @@ class Session:
     sim: Any = None  # the agspec.interp.tick.Simulator of the loaded instance
     # the capabilities declared in the start reply (F-PROTOCOL); the reply carries only these parts
     capabilities: dict[str, bool] = field(default_factory=lambda: {"observations": True, "masks": True,
-                                                                   "privileged_state": True, "events": True})
+                                                                   "privileged_state": True, "events": True,
+                                                                   "diagnostic_state": True})
     # instance -> reason to answer `unsupported` to its load (F-PROTOCOL-UNSUPPORTED), or None to accept it
     refuse: Callable[[dict], str | None] | None = None
 
@@ -554,6 +555,26 @@ def state_only(session: Session) -> None:
 def events_only(session: Session) -> None:
     """Events only: no state, observations or masks."""
     session.capabilities.update(privileged_state=False, observations=False, masks=False)
+
+
+@honest("own-bookkeeping", "full", Workload("pair-1x2-flat.json", "greedy", 24))
+def own_bookkeeping(session: Session) -> None:
+    """Same behaviour, own bookkeeping: no switch lock is 0 (not -1), an idle robot's busy_until is 0, no poses,
+    an activity's phases are not split."""
+    session.capabilities["diagnostic_state"] = False
+
+    def reply(msg: dict, rep: dict) -> Any:
+        state = rep.get("state") if isinstance(rep, dict) else None
+        if state:
+            for r in state["robots"].values():
+                r["switch_lock"] = max(0, r["switch_lock"])
+                r["busy_until"] = r["busy_until"] if r["busy_until"] > state["t"] else 0
+                r["ee"], r["q"] = [0.0, 0.0], []
+            for a in state["activities"]:  # phases folded into one: only start and end are behaviour
+                a["approach"], a["process"], a["retreat"] = 0, a["end"] - a["start"], 0
+        return rep
+
+    session.after.append(reply)
 
 
 @honest("official-only", "full", Workload("catalogue:flow-easy:0", "greedy", 6), skips=1)
