@@ -370,3 +370,40 @@ def test_recomputed_metrics_equal_the_reference_footer_on_every_scenario():
         footer = records[-1]["metrics"]
         for key, value in recompute(records).items():
             assert footer[key] == pytest.approx(value) if isinstance(value, float) else footer[key] == value, key
+
+
+# =============================================================================================== coverage
+
+
+def test_the_suite_covers_every_field_action_class_event_type_and_value_class():
+    """F-CONFORM-COVERAGE: a rounded 1/3 must meet a suite case that shows 1/3."""
+    from agspec.conform.values import entries, value_coverage
+
+    cov = value_coverage([from_case(c) for c in load_suite()])
+    assert cov["uncovered"] == []
+    assert set(cov["values"]) == set(entries())
+    for cls in ("support_fraction_1/3", "support_fraction_2/3", "support_fraction_1/4", "xor_choice",
+                "resource_at_capacity", "expiry_at_exact_tick"):
+        assert cov["values"][f"value:{cls}"], cls
+
+
+def test_value_classes_are_detected_and_missing_ones_reported():
+    from agspec.conform.values import observe_run
+
+    states = [{"t": 0, "products": [], "proposals": {"c": {"expires_at": 1}}},
+              {"t": 1, "products": [{"xor": {"g": "a"}}], "proposals": {}}]
+    events = [{"type": "admission_failed", "candidate": "c", "reason": "expired"},
+              {"type": "blocked", "cause": "resource"}]
+    obs = [{"0,0": {"operation_options": [{"support": 1 / 3}]}}, {"0,0": {"operation_options": [{"support": 0.33}]}}]
+    seen = observe_run(states, events, obs, [])
+    assert {"value:expiry_at_exact_tick", "value:xor_choice", "value:resource_at_capacity",
+            "value:support_fraction_1/3", "event:blocked"} <= seen
+    assert not any(s.startswith("value:support_fraction_33") for s in seen)  # 0.33 is no fraction class
+
+
+def test_a_run_reports_the_rules_it_exercised():
+    items = catalogue_episodes(1, 5, ["flow-easy"])
+    summary = runner.run(items, "reference")
+    assert "R-PICK" in summary.rules_exercised and "R-RELEASE" in summary.rules_exercised
+    assert "R-DELIVERY" not in summary.rules_exercised  # nothing is delivered in 5 ticks
+    assert summary.footer()["rules_exercised"] == summary.rules_exercised

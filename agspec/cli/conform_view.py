@@ -16,6 +16,7 @@ from rich.table import Table
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
+from agspec.conform.values import EVENT_RULES
 
 MAX_SHOWN = 20  # failure blocks printed in table mode
 
@@ -165,6 +166,10 @@ def print_summary(summary, impl_spec: str) -> None:
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
         stdout.print(f"reproducer: {path}", markup=False)
+    witnessed = sorted({r for rules in EVENT_RULES.values() for r in rules})
+    missing = [r for r in witnessed if r not in summary.rules_exercised]
+    stdout.print(f"rules exercised: {len(summary.rules_exercised)} of {len(witnessed)} the events witness"
+                 + (f" (never: {', '.join(missing)})" if missing else ""), markup=False)
     stdout.print(f"level proven: [bold]{level_name(summary.level)}[/]"
                  + (f" (not proven: {', '.join(p for p in LEVEL_PARTS if p not in summary.level)})"
                     if summary.level != LEVEL_PARTS else ""))
@@ -195,7 +200,8 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
     from agspec.conform.cases import coverage
 
     cases = _load_suite(suite_dir)
-    cov = coverage(cases)
+    with stderr.status("running every case on the reference for value coverage …"):
+        cov = coverage(cases, values=True)
     if fmt == "json":
         emit_json(cov)
     else:
@@ -210,11 +216,17 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
             for ident, ids in cov[group].items():
                 n = len(ids)
                 table.add_row(ident, titles.get(ident, ""), str(n) if n else "[bold red]0[/]")
+        from agspec.conform.values import VALUE_CLASSES
+
+        for entry, ids in cov.get("values", {}).items():
+            n = len(ids)
+            table.add_row(entry, VALUE_CLASSES.get(entry.split(":", 1)[1], "") if entry.startswith("value:") else "",
+                          str(n) if n else "[bold red]0[/]")
         stdout.print(table)
         if cov["uncovered"]:
             stdout.print(f"[bold red]uncovered[/]: {', '.join(cov['uncovered'])}")
         else:
-            stdout.print("[green]every rule and invariant is covered[/]")
+            stdout.print("[green]every rule, invariant, field, action class, event type and value class is covered[/]")
     return EXIT_INVALID if cov["uncovered"] else EXIT_OK
 
 

@@ -828,11 +828,13 @@ def check_reference(case: Case) -> list[str]:
 # coverage
 
 
-def coverage(cases: Sequence[Case], universe: Sequence[str] | None = None) -> dict[str, Any]:
+def coverage(cases: Sequence[Case], universe: Sequence[str] | None = None, *, values: bool = False) -> dict[str, Any]:
     """Which spec rules and invariants the cases exercise.
 
     ``{"rules": {ID: [case ids]}, "invariants": {ID: [case ids]}, "uncovered": [IDs]}`` over the
-    ``### R-…`` and ``### INV-…`` headings of spec/ (every declared ID appears as a key).
+    ``### R-…`` and ``### INV-…`` headings of spec/ (every declared ID appears as a key); with
+    ``values``, also ``"values": {entry: [case ids]}`` (agspec.conform.values), uncovered entries
+    included in ``uncovered``.
     """
     from agspec.spec_index import spec_ids
 
@@ -847,7 +849,15 @@ def coverage(cases: Sequence[Case], universe: Sequence[str] | None = None) -> di
             if iid in invariants and case.id not in invariants[iid]:
                 invariants[iid].append(case.id)
     uncovered = [i for i in ids if not (rules.get(i) or invariants.get(i))]
-    return {"rules": rules, "invariants": invariants, "uncovered": uncovered}
+    out: dict[str, Any] = {"rules": rules, "invariants": invariants, "uncovered": uncovered}
+    if values:  # F-CONFORM-COVERAGE: every field, action class, event type and value class, run on the reference
+        from agspec.conform.items import from_case
+        from agspec.conform.values import value_coverage
+
+        vc = value_coverage([from_case(c) for c in cases])
+        out["values"] = vc["values"]
+        out["uncovered"] = uncovered + vc["uncovered"]
+    return out
 
 
 # =============================================================================================

@@ -55,7 +55,7 @@ class Result:
     states: int = 0  # replies compared (any part)
     compared: dict[str, int] = field(default_factory=lambda: {p: 0 for p in LEVEL_PARTS})
     invariant_checks: int = 0
-    not_checked: dict[str, str] = field(default_factory=dict)  # invariant ID -> why (F-CONFORM-LEVELS)
+    event_types: set[str] = field(default_factory=set)  # of the reference's run: which rules fired
     expectations: int = 0
     duration_s: float = 0.0
     rendered: str | None = None  # the CommonMark-style text of a failure
@@ -183,6 +183,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if ctx is not None:
             prev_rec = {"type": "header", "instance": item.instance, "execution_seed": item.execution_seed,
                         "state": reply.get("state"), "events": events_of(reply)}
+        res.event_types.update(e["type"] for e in ref.sim.reset_events)
         if _check(res, item, ref, -1, ref.expected(ref.sim.reset_events), reply, parts, ctx, None, prev_rec, opts,
                   sent, history, impl):
             return res
@@ -191,6 +192,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             actions = ref.actions(item, t)
             sent.append(actions)
             step = ref.sim.step(actions)
+            res.event_types.update(e["type"] for e in step.events)
             reply = impl.step(actions)
             res.ticks += 1
             rec = None

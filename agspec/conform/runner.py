@@ -24,6 +24,7 @@ from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
 from agspec.conform.report import OUTCOMES, ReportWriter, header_record
+from agspec.conform.values import rules_exercised
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
 EXIT_NONDETERMINISTIC = 5  # F-EXIT-CODES, F-CONFORM-NONDETERMINISM
@@ -83,6 +84,11 @@ class Summary:
             if o == "skip":
                 out[r.message or "skipped"] = out.get(r.message or "skipped", 0) + 1
         return out
+
+    @property
+    def rules_exercised(self) -> list[str]:
+        """Rules whose firing the reference's events witnessed in the items run (values.EVENT_RULES)."""
+        return rules_exercised({t for r, _ in self.results for t in r.event_types})
 
     @property
     def reproducers(self) -> list[str]:
@@ -146,7 +152,7 @@ class Summary:
             "states_compared": self.compared["state"],
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
-            "skips": self.skips, "reproducers": self.reproducers, "nondeterministic": self.nondeterministic,
+            "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
             "duration_s": round(self.duration_s, 3),
             "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
             "verdict": self.verdict, "exit_code": self.exit_code,

@@ -503,6 +503,23 @@ def deep_nesting(session: Session) -> None:
     session.after.append(reply)
 
 
+@mutant("rounded-support", "O-SUPPORT-FRACTION", "fail", ("/observations/*/operation_options/*/support",),
+        Workload("helped-3x2-flat.json", "random", 20, seed=0))
+def rounded_support(session: Session) -> None:
+    """Support fraction rounded to two decimals (1/3 -> 0.33): exact for 1/2 and 1/4, wrong for thirds."""
+    from agspec.interp import observe, tick
+
+    orig = observe.observation
+
+    def observation(state, model, cell, options, mask):
+        obs = orig(state, model, cell, options, mask)
+        for opt in obs["operation_options"]:
+            opt["support"] = round(opt["support"], 2)  # BUG: a formatting shortcut
+        return obs
+
+    tick.observation = observation
+
+
 _FIRST_EPISODE = {"done": False}
 
 
