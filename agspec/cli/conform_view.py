@@ -180,7 +180,8 @@ def print_summary(summary, impl_spec: str) -> None:
                      f"reproduced it {nd['reproduced']} time(s): " + "; ".join(
                          f"{r['outcome']} {r['message'] or ''}".strip() for r in nd["replays"]), markup=False)
     style = {0: "bold green", 1: "bold red", EXIT_NONDETERMINISTIC: "bold red"}.get(code, "bold magenta")
-    verdict = summary.verdict.upper() if code in (1, EXIT_NONDETERMINISTIC) else summary.verdict
+    head, sep, rest = summary.verdict.partition(":")
+    verdict = (head.upper() + sep + rest) if code in (1, EXIT_NONDETERMINISTIC) else summary.verdict
     stdout.print(f"[{style}]{verdict}[/]" + (" (the implementation could not be judged)"
                                              if code == 3 and not summary.vacuous else ""))
 
