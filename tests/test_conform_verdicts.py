@@ -282,12 +282,14 @@ def test_serve_exits_on_end_of_input():
 def test_every_reproducer_is_printed_and_in_the_report(tmp_path, monkeypatch):
     where = tmp_path / "repros"
     monkeypatch.setenv("AGSPEC_REPRO_DIR", str(where))
-    result = CliRunner().invoke(cli, ["conform", "--impl", mutant("obs-leak"), "--no-suite", "--episodes", "1",
-                                      "--ticks", "3", "-k", "e-flow-easy-greedy", "--format", "json"])
+    args = ["conform", "--impl", mutant("obs-leak"), "--no-suite", "--episodes", "1", "--ticks", "3",
+            "-k", "e-flow-easy-greedy"]
+    result = CliRunner().invoke(cli, args + ["--format", "json"])
     assert result.exit_code == 1
     (path,) = json.loads(result.stdout)["footer"]["reproducers"]
     assert Path(path).is_file() and Path(path).parent == where
-    assert f"reproducer written: {path}" in result.stderr
+    table = CliRunner().invoke(cli, args)
+    assert f"reproducer written: {path}" in table.stderr and f"reproducer: {path}" in table.stdout
     assert not (tmp_path / ".agspec").exists()
 
 

@@ -108,7 +108,8 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
         def on_result(result, outcome):
             progress.update(task, advance=1, description=f"{result.item.id} {outcome}")
             reproducer = (result.failure or {}).get("reproducer")
-            if reproducer and result.item.kind != "replay":  # F-REPRO: every file written is announced
+            # F-REPRO: every file written is announced (with --format json: in the footer's `reproducers`)
+            if reproducer and result.item.kind != "replay" and fmt != "json":
                 stderr.print(f"reproducer written: {reproducer}", markup=False)
 
         # SIGTERM / SIGHUP / Ctrl-C / an exception: the finally blocks close every simulator (F-PROTOCOL-TEARDOWN)
