@@ -1,6 +1,7 @@
 """Verdicts a simulator author can trust: never a false "conformant", never a false "nonconformant",
-never a crashed harness (F-CONFORM-LEVELS, F-PROTOCOL-UNSUPPORTED, F-PROTOCOL-ERRORS,
-F-CONFORM-NONDETERMINISM, F-PROTOCOL-TEARDOWN, F-REPRO, F-TRACE-CHECK).
+never a crashed harness (F-CONFORM-LEVELS, F-TRACE-STATE, F-PROTOCOL-UNSUPPORTED, F-PROTOCOL-ERRORS,
+F-CONFORM-NONDETERMINISM and RES-EXIT-NONDETERMINISTIC, F-PROTOCOL-TEARDOWN, F-REPRO, F-TRACE-CHECK,
+F-CONFORM-COVERAGE).
 
 Seeded mutants live in tests/mutants/mutant_registry.py (test_mutants.py runs them all); this file
 runs the honest simulators of the same registry (``sim.py --honest NAME``), which must pass at their

@@ -27,7 +27,7 @@ from agspec.conform.report import OUTCOMES, ReportWriter, header_record
 from agspec.conform.values import rules_exercised
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
-EXIT_NONDETERMINISTIC = 5  # F-EXIT-CODES, F-CONFORM-NONDETERMINISM
+EXIT_NONDETERMINISTIC = 5  # F-EXIT-CODES, F-CONFORM-NONDETERMINISM, RES-EXIT-NONDETERMINISTIC
 FULL = "full"
 
 
