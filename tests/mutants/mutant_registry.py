@@ -408,6 +408,15 @@ def _at_step(t: int, fn: Callable[[], None]) -> Callable[[dict, Session], None]:
     return hook
 
 
+def _step_reply(session: Session, t: int, corrupt: Callable[[dict], Any]) -> None:
+    """Replace the reply whose ``t`` is ``t`` (the step of epoch t - 1) by ``corrupt(reply)``."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        return corrupt(rep) if msg.get("cmd") == "step" and rep.get("t") == t else rep
+
+    session.after.append(reply)
+
+
 def _die() -> None:
     sys.stderr.write("mutant crash: segmentation fault (simulated)\n")
     sys.stderr.flush()
@@ -431,26 +440,14 @@ def hang(session: Session) -> None:
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def garbage(session: Session) -> None:
     """Garbage output: the reply to the step of epoch 1 is not JSON."""
-
-    def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 2:
-            return "Segmentation fault (core dumped) {'t': 2, ok: yes"
-        return rep
-
-    session.after.append(reply)
+    _step_reply(session, 2, lambda rep: "Segmentation fault (core dumped) {'t': 2, ok: yes")
 
 
 @mutant("wrong-seq", "F-PROTOCOL (seq not echoed)", "error", ("protocol/wrong_seq",),
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def wrong_seq(session: Session) -> None:
     """Wrong seq: the reply to the step of epoch 2 echoes a different seq."""
-
-    def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 3:
-            return {**rep, "seq": ["not", "the", "seq", rep.get("seq")]}
-        return rep
-
-    session.after.append(reply)
+    _step_reply(session, 3, lambda rep: {**rep, "seq": ["not", "the", "seq", rep.get("seq")]})
 
 
 # =============================================================================================
@@ -480,13 +477,7 @@ def events_only_state_lie(session: Session) -> None:
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def non_finite(session: Session) -> None:
     """A NaN in the reply to the step of epoch 1 (bare `NaN` on the wire)."""
-
-    def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 2:
-            return json.dumps({**rep, "t": float("nan")}, separators=(",", ":"))
-        return rep
-
-    session.after.append(reply)
+    _step_reply(session, 2, lambda rep: json.dumps({**rep, "t": float("nan")}, separators=(",", ":")))
 
 
 @mutant("deep-nesting", "F-PROTOCOL-ERRORS (nesting)", "error", ("protocol/too_deep",),
@@ -494,13 +485,11 @@ def non_finite(session: Session) -> None:
 def deep_nesting(session: Session) -> None:
     """The reply to the step of epoch 1 carries an event nested 200,000 arrays deep."""
 
-    def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 2:
-            head = json.dumps({k: v for k, v in rep.items() if k != "events"}, separators=(",", ":"))[:-1]
-            return head + ',"events":' + "[" * 200_000 + "]" * 200_000 + "}"
-        return rep
+    def nest(rep: dict) -> str:
+        head = json.dumps({k: v for k, v in rep.items() if k != "events"}, separators=(",", ":"))[:-1]
+        return head + ',"events":' + "[" * 200_000 + "]" * 200_000 + "}"
 
-    session.after.append(reply)
+    _step_reply(session, 2, nest)
 
 
 @mutant("rounded-support", "O-SUPPORT-FRACTION", "fail", ("/observations/*/operation_options/*/support",),
