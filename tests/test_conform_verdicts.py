@@ -410,3 +410,13 @@ def test_a_run_reports_the_rules_it_exercised():
     assert "R-PICK" in summary.rules_exercised and "R-RELEASE" in summary.rules_exercised
     assert "R-DELIVERY" not in summary.rules_exercised  # nothing is delivered in 5 ticks
     assert summary.footer()["rules_exercised"] == summary.rules_exercised
+
+
+def test_diff_states_the_level_it_compared():
+    """`agspec diff` against an events-only simulator says "no divergence" only at level events."""
+    inst = HERE / "mutants" / "instances" / "pair-1x2-flat.json"
+    result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", mutant("events-only-state-lie"),
+                                      "--scenario", str(inst), "--ticks", "8", "--small", "0",
+                                      "--controller", "greedy", "--format", "json", "--out", "out"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["level"] == "events"

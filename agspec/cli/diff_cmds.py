@@ -9,7 +9,8 @@ from typing import Any
 import click
 
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
-from agspec.conform.runner import EXIT_NONDETERMINISTIC
+from agspec.conform.lockstep import LEVEL_PARTS
+from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
 from agspec.conform.teardown import exit_on_signals
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
@@ -81,6 +82,9 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     start = time.perf_counter()
     findings: list[D.Finding] = []
     report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.driver}
+    # F-CONFORM-LEVELS: what the pair can compare is what both declare
+    proven = [p for p in LEVEL_PARTS if p in pair.parts()]
+    report["level"] = level_name(proven)
     try:
         log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
             f"{'A' if pair.driver == 'A' else 'B'} ({pair.expected_label}); {len(subjects)} instance(s)")
@@ -111,7 +115,8 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         pair.close()
     report["seconds"] = round(time.perf_counter() - start, 3)
 
-    vacuous = report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings
+    vacuous = (report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings) \
+        or not proven
     errors = [f for f in findings if f.run.divergence.where == "error"]
     flaky = [e for e in report.get("findings", []) if e.get("nondeterministic")]
     code = EXIT_HARNESS if (errors or vacuous) else (EXIT_INVALID if findings else EXIT_OK)
@@ -122,7 +127,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         emit_json(report)
     else:
         c = report["compared"]
-        summary = (f"{c['episodes']} episode(s), {c['ticks']} ticks compared"
+        summary = (f"level {report['level']}: {c['episodes']} episode(s), {c['ticks']} ticks compared"
                    + (f", {c['hypothesis_examples']} hypothesis sequences" if c["hypothesis_examples"] else "")
                    + f" in {report['seconds']:.1f} s: ")
         if vacuous:
