@@ -62,7 +62,7 @@ def test_honest_simulator_passes_its_workload_at_its_level(name):
     assert summary.footer()["conformant"] == (h.level == "full")  # plain "conformant" only at full level
 
 
-@pytest.mark.parametrize("name", ["state-only", "events-only", "own-bookkeeping"])
+@pytest.mark.parametrize("name", ["state-only", "events-only", "own-bookkeeping", "no-events"])
 def test_partial_simulators_pass_the_whole_suite_and_episodes(name):
     """No false "nonconformant": a state-only engine (its handoffs start and complete in one tick, so
     their events exist only as state changes), an events-only engine and an engine with its own

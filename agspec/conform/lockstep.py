@@ -138,10 +138,21 @@ class _Reference:
         return dict(item.actions[t]) if t < len(item.actions) else {}
 
 
-def _applied(reply: Mapping[str, Any], sent: Mapping[str, int], robots: list[str]) -> dict[str, int]:
-    """Applied actions of the implementation: its ``applied`` map, else the sent actions minus coercions."""
+def _applied(reply: Mapping[str, Any], sent: Mapping[str, int], robots: list[str],
+             observations: Mapping[str, Any] | None = None) -> dict[str, int]:
+    """Applied actions of the implementation: its ``applied`` map, else the sent actions minus coercions.
+
+    Coercions are its ``action_coerced`` events; without the events capability (``observations``
+    given), R-ACTION-VALIDATION applied to its own previous masks: a masked or out-of-range action idles.
+    """
     if isinstance(reply.get("applied"), dict):
         return {r: int(reply["applied"].get(r, 0)) for r in robots}
+    if observations is not None:
+        def legal(r: str, a: int) -> bool:
+            mask = (observations.get(r) or {}).get("mask") if isinstance(observations.get(r), dict) else None
+            return not isinstance(mask, list) or (0 <= a < len(mask) and bool(mask[a]))
+
+        return {r: (int(sent.get(r, 0)) if legal(r, int(sent.get(r, 0))) else 0) for r in robots}
     coerced = {e.get("robot") for e in reply.get("events") or [] if isinstance(e, dict) and e.get("type") == "action_coerced"}
     return {r: (0 if r in coerced else int(sent.get(r, 0))) for r in robots}
 
@@ -197,7 +208,8 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             res.ticks += 1
             rec = None
             if ctx is not None:
-                rec = {"type": "tick", "t": t, "actions": _applied(reply, actions, ref.robots),
+                rec = {"type": "tick", "t": t,
+                       "actions": _applied(reply, actions, ref.robots, None if caps.get("events") else prev_obs or {}),
                        "chosen": {r: int(actions.get(r, 0)) for r in ref.robots},
                        "events": events_of(reply), "state": reply.get("state")}
                 if prev_obs is not None:

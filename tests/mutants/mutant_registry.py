@@ -557,6 +557,12 @@ def state_only(session: Session) -> None:
     session.capabilities.update(events=False, observations=False, masks=False)
 
 
+@honest("no-events", "state+observations+masks", Workload("pair-1x2-flat.json", "greedy", 24))
+def no_events(session: Session) -> None:
+    """State, observations and masks, but no events (and so no `applied`): coercions are not reported."""
+    session.capabilities.update(events=False)
+
+
 @honest("events-only", "events", Workload("pair-1x2-flat.json", "greedy", 24))
 def events_only(session: Session) -> None:
     """Events only: no state, observations or masks."""
