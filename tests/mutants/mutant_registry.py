@@ -476,8 +476,9 @@ def events_only_state_lie(session: Session) -> None:
 @mutant("non-finite", "F-PROTOCOL-ERRORS (NaN in a reply)", "error", ("protocol/non_finite",),
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def non_finite(session: Session) -> None:
-    """A NaN in the reply to the step of epoch 1 (bare `NaN` on the wire)."""
-    _step_reply(session, 2, lambda rep: json.dumps({**rep, "t": float("nan")}, separators=(",", ":")))
+    """A NaN in the state of the reply to the step of epoch 1 (a bare `NaN` on the wire)."""
+    _step_reply(session, 2, lambda rep: json.dumps({**rep, "state": {**rep["state"], "wip": float("nan")}},
+                                                   separators=(",", ":")))
 
 
 @mutant("deep-nesting", "F-PROTOCOL-ERRORS (nesting)", "error", ("protocol/too_deep",),
