@@ -177,7 +177,7 @@ def print_summary(summary, impl_spec: str) -> None:
     code = summary.exit_code
     if summary.nondeterministic is not None:
         nd = summary.nondeterministic
-        stdout.print(f"[bold red]{nd['id']}[/]: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) "
+        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) "
                      f"reproduced it {nd['reproduced']} time(s): " + "; ".join(
                          f"{r['outcome']} {r['message'] or ''}".strip() for r in nd["replays"]), markup=False)
     style = {0: "bold green", 1: "bold red", EXIT_NONDETERMINISTIC: "bold red"}.get(code, "bold magenta")
