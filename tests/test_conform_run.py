@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform.report import read_report
+from agspec.formats.report import read_report
 
 FAKES = Path(__file__).resolve().parent / "fakes"
 SERVE = shutil.which("agspec")
@@ -117,8 +117,9 @@ def test_usage_errors_exit_2():
 def test_coverage_json():
     result = conform("--coverage", "--format", "json")
     cov = json.loads(result.output)
-    assert set(cov) == {"rules", "invariants", "uncovered"}
+    assert set(cov) == {"rules", "invariants", "values", "uncovered"}  # values: F-CONFORM-COVERAGE
     assert all(k.startswith("R-") for k in cov["rules"]) and all(k.startswith("INV-") for k in cov["invariants"])
+    assert cov["values"]["value:support_fraction_1/3"] and cov["values"]["event:release"]
     from agspec.conform.invariants import INVARIANT_IDS
 
     assert set(INVARIANT_IDS) <= set(cov["invariants"])

@@ -363,7 +363,7 @@ def test_recomputed_metrics_equal_the_reference_footer_on_every_scenario():
     from agspec.evaluate import run_episode
     from agspec.ir.instance import make_instance
     from agspec.trace.verify import recompute
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
 
     for name in OFFICIAL_SCENARIOS:
         inst = make_instance(*load_scenario_bundle(name), index=0)

@@ -17,14 +17,16 @@ from __future__ import annotations
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from multiprocessing.util import Finalize
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
-from agspec.conform.report import OUTCOMES, ReportWriter, header_record
+from agspec.conform.protocol import PROTOCOL
 from agspec.conform.values import rules_exercised
+from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
 EXIT_NONDETERMINISTIC = 5  # F-EXIT-CODES, F-CONFORM-NONDETERMINISM, RES-EXIT-NONDETERMINISTIC
@@ -165,7 +167,6 @@ _WORKER: dict[str, Any] = {}  # per worker process: its own implementation (neve
 
 
 def _init_worker(spec: str, timeout: float, validate: bool) -> None:
-    from multiprocessing.util import Finalize
 
     impl = make_impl(spec, timeout=timeout, validate=validate)
     _WORKER["impl"] = impl
@@ -205,7 +206,7 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
             described = impl.describe()
         except Exception as exc:  # reported per case as an error; the header says why
             described = {"spec": impl_spec, "error": str(exc)}
-        summary.header = header_record(described, dict(options_record or {}), len(items))
+        summary.header = header_record(described, dict(options_record or {}), len(items), protocol=PROTOCOL)
         declared = {"state" if k == "privileged_state" else k for k, v in impl.capabilities.items() if v}
         summary.header["level"] = level_name([p for p in LEVEL_PARTS if p in declared])
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}

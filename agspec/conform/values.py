@@ -21,7 +21,10 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Any, Iterable, Mapping, Sequence
 
+from agspec.controllers import make_controller
 from agspec.interp.observe import DELIVER, HANDOFF0, IDLE, N_ACTIONS, OP0, PICK0, RECEIVE0
+from agspec.interp.snapshot import global_state
+from agspec.interp.tick import Simulator
 
 # F-TRACE-EVENTS: the rule each event type witnesses
 EVENT_RULES: dict[str, tuple[str, ...]] = {
@@ -134,10 +137,6 @@ def observe_run(states: Sequence[Mapping[str, Any]], events: Iterable[Mapping[st
 
 def run_case(item: Any) -> set[str]:
     """Run one suite item on the reference and return the entries it shows."""
-    from agspec.controllers import make_controller
-    from agspec.interp.snapshot import global_state
-    from agspec.interp.tick import Simulator
-
     sim = Simulator(item.instance)
     sim.reset(item.execution_seed)
     ctl = None
