@@ -420,3 +420,29 @@ def test_diff_states_the_level_it_compared():
                                       "--controller", "greedy", "--format", "json", "--out", "out"])
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["level"] == "events"
+
+
+# =============================================================================================== symbolic actions
+
+
+def test_an_illegal_symbolic_action_is_one_behaviour_in_conform_and_diff():
+    """F-SYMBOLIC-ACTIONS: an option not offered makes the script invalid in conform and in diff alike
+    (never idle on one side and an exception on the other)."""
+    from agspec.conform import diff as D
+    from agspec.conform.impl import ReferenceImpl
+    from agspec.conform.items import Item
+    from agspec.conform.lockstep import Options, run_item
+
+    inst = json.loads((HERE / "mutants" / "instances" / "pair-1x2-flat.json").read_text(encoding="utf-8"))
+    seed = inst["seeds"]["execution"]
+    script = ({"0,0": {"support": "op:0:no-such-operation:0,0"}},)
+    item = Item(id="illegal", kind="replay", title="illegal", instance=inst, execution_seed=seed, ticks=1,
+                actions=script)
+    res = run_item(item, ReferenceImpl(), Options())
+    assert res.outcome == "error" and "invalid" in res.message
+    pair = D.open_pair("reference", "reference")
+    try:
+        run = D.replay(pair, inst, seed, list(script), 1)
+    finally:
+        pair.close()
+    assert run.invalid and run.divergence is None and run.actions == []
