@@ -52,6 +52,7 @@ def run_episode(
             controller={"name": ctl.name, "information": ctl.information},
             initial_state=global_state(sim.state),
             initial_events=sim.reset_events,
+            horizon=limit,
         )
     while not sim.done and sim.t < limit:
         obs = sim.observe()

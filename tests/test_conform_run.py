@@ -117,8 +117,9 @@ def test_usage_errors_exit_2():
 def test_coverage_json():
     result = conform("--coverage", "--format", "json")
     cov = json.loads(result.output)
-    assert set(cov) == {"rules", "invariants", "uncovered"}
+    assert set(cov) == {"rules", "invariants", "values", "uncovered"}  # values: F-CONFORM-COVERAGE
     assert all(k.startswith("R-") for k in cov["rules"]) and all(k.startswith("INV-") for k in cov["invariants"])
+    assert cov["values"]["value:support_fraction_1/3"] and cov["values"]["event:release"]
     from agspec.conform.invariants import INVARIANT_IDS
 
     assert set(INVARIANT_IDS) <= set(cov["invariants"])

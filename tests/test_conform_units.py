@@ -150,7 +150,8 @@ def test_adapter_exception_is_a_crash_then_restart(tiny_instance):
 def test_reference_impl_round(tiny_instance):
     with ReferenceImpl(validate=True) as impl:
         info = impl.start()
-        assert info["capabilities"] == {"observations": True, "masks": True, "privileged_state": True, "events": True}
+        assert info["capabilities"] == {"observations": True, "masks": True, "privileged_state": True, "events": True,
+                                        "diagnostic_state": True}
         impl.load(tiny_instance)
         r = impl.reset(None)
         assert r["t"] == 0 and r["state"]["t"] == 0

@@ -135,3 +135,31 @@ def test_usage_problems_are_one_failing_item(project):
     bad = project.runpytest(*LOAD, "--agspec-impl", "python:no_such_module:make", "-p", "no:cacheprovider")
     bad.assert_outcomes(passed=1, failed=1)
     assert "no_such_module" in bad.stdout.str()
+
+
+BLIND = '''
+class Blind:
+    """Declares no behavioural part: every item is skipped, nothing is compared."""
+
+    def handle(self, msg):
+        reply = {"seq": msg["seq"], "ok": True}
+        if msg["cmd"] == "start":
+            reply.update(protocol="agspec-protocol/1", implementation={"name": "blind", "version": "0"},
+                         capabilities={"observations": False, "masks": False, "privileged_state": False,
+                                       "events": False})
+        return reply
+'''
+
+
+def test_a_vacuous_session_exits_3_and_the_level_is_stated(project):
+    """F-CONFORM-LEVELS in the plugin: the level proven is printed, and a session that compared nothing fails."""
+    project.makepyfile(blind=BLIND)
+    blind = project.runpytest(*LOAD, "--agspec-impl", f"python:{project.path / 'blind.py'}:Blind",
+                              "--agspec-episodes", "1", "--agspec-ticks", "3", "-k", "e-flow-easy-greedy",
+                              "-p", "no:cacheprovider")
+    assert blind.ret == 3
+    blind.stdout.fnmatch_lines(["*agspec: level proven none*VACUOUS*"])
+    ok = project.runpytest(*LOAD, "--agspec-impl", "reference", "--agspec-episodes", "1", "--agspec-ticks", "3",
+                           "-k", "e-flow-easy-greedy", "-p", "no:cacheprovider")
+    assert ok.ret == 0
+    ok.stdout.fnmatch_lines(["*agspec: level proven full*"])

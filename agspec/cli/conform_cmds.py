@@ -40,12 +40,15 @@ from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, 
 @click.option("--no-suite", is_flag=True, help="Skip the conformance suite (run only catalogue episodes).")
 @click.option("--suite", "suite_dir", type=click.Path(file_okay=False), default=None, help="Suite root (default: the shipped conformance/).")
 @click.option("--repro-dir", type=click.Path(file_okay=False), default=".agspec/repro", show_default=True,
-              help="Where reproducers of failures are saved.")
+              envvar="AGSPEC_REPRO_DIR", show_envvar=True,
+              help="Where reproducers of failures are saved (every path written is printed and in the report).")
+@click.option("--require", "require", default=None, metavar="LEVEL",
+              help="Fail (exit 1) unless the run proves LEVEL: `full` or parts from events,state,observations,masks.")
 @click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
 def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
             jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-            repro_dir: str, float_tolerance: float | None) -> None:
+            repro_dir: str, float_tolerance: float | None, require: str | None) -> None:
     """Check an implementation against the AssemblyGrid v1 reference (F-CONFORM).
 
     Runs the conformance suite and lockstep episodes on the official catalogue; every state is
@@ -63,6 +66,12 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
         fail(f"--max-fail must be >= 1, got {max_fail}")
     if exitfirst:
         max_fail = 1
+    from agspec.conform.runner import parse_level
+
+    try:
+        required = parse_level(require) if require is not None else ()
+    except ValueError as exc:
+        fail(str(exc))
     items, impl_spec, universe, suite_loaded = view.build_items(impl_spec, replay_path, no_suite, suite_dir,
                                                                 episodes, ticks)
     from agspec.conform.select import SelectError, select
@@ -77,10 +86,11 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
     options_record = {"impl_timeout": impl_timeout, "k": keyword, "max_fail": max_fail, "jobs": jobs,
                       "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
                       "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
-                      "float_tolerance": float_tolerance}
+                      "float_tolerance": float_tolerance, "require": require, "repro_dir": repro_dir}
     summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, jobs=jobs,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
-                           repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt)
+                           repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
+                           require=required)
     if fmt == "json":
         emit_json(view.json_summary(summary))
     else:

@@ -14,6 +14,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.conform.lockstep import LEVEL_PARTS
+from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
+from agspec.conform.values import EVENT_RULES
 
 MAX_SHOWN = 20  # failure blocks printed in table mode
 
@@ -80,10 +83,12 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 
 def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, jobs: int,
             expectations: Mapping[str, Any], stale: Sequence[str], max_fail: int | None, report_path: str | None,
-            repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str):
+            repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str,
+            require: Sequence[str] = ()):
     from agspec.conform.impl import ImplSpecError, make_impl
     from agspec.conform.lockstep import Options
     from agspec.conform.runner import run
+    from agspec.conform.teardown import exit_on_signals
 
     try:
         impl = make_impl(impl_spec, timeout=impl_timeout, validate=validate)
@@ -102,13 +107,20 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
 
         def on_result(result, outcome):
             progress.update(task, advance=1, description=f"{result.item.id} {outcome}")
+            reproducer = (result.failure or {}).get("reproducer")
+            # F-REPRO: every file written is announced (with --format json: in the footer's `reproducers`)
+            if reproducer and result.item.kind != "replay" and fmt != "json":
+                stderr.print(f"reproducer written: {reproducer}", markup=False)
 
-        try:
-            return run(items, impl_spec, timeout=impl_timeout, validate=validate, jobs=jobs, opts=opts,
-                       expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
-                       options_record=options_record, impl=impl if jobs <= 1 else None, on_result=on_result)
-        finally:
-            impl.close()  # also on Ctrl-C: never leave a simulator process behind
+        # SIGTERM / SIGHUP / Ctrl-C / an exception: the finally blocks close every simulator (F-PROTOCOL-TEARDOWN)
+        with exit_on_signals():
+            try:
+                return run(items, impl_spec, timeout=impl_timeout, validate=validate, jobs=jobs, opts=opts,
+                           expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
+                           options_record=options_record, impl=impl if jobs <= 1 else None, on_result=on_result,
+                           require=require)
+            finally:
+                impl.close()
 
 
 # --------------------------------------------------------------------------- output
@@ -146,21 +158,37 @@ def print_summary(summary, impl_spec: str) -> None:
     if summary.stale:
         table.add_row("[bold red]stale[/]", str(len(summary.stale)), summary.stale[0])
     stdout.print(table)
-    stdout.print(f"{len(summary.results)} run ({summary.not_run} not run), {summary.ticks} ticks, "
-                 f"{summary.states} states compared, {summary.invariant_checks} invariant checks, "
-                 f"{summary.expectations} expectations, {summary.duration_s:.1f} s")
+    c = summary.compared
+    stdout.print(f"{len(summary.results)} run ({summary.not_run} not run), {summary.ticks} ticks; compared: "
+                 f"{c['events']} events, {c['state']} states, {c['observations']} observations, {c['masks']} masks; "
+                 f"{summary.invariant_checks} invariant checks, {summary.expectations} expectations, "
+                 f"{summary.duration_s:.1f} s")
+    for reason, n in summary.skips.items():
+        stdout.print(f"[yellow]skipped[/] {n}: {reason}")
+    for path in summary.reproducers:
+        stdout.print(f"reproducer: {path}", markup=False)
+    witnessed = sorted({r for rules in EVENT_RULES.values() for r in rules})
+    missing = [r for r in witnessed if r not in summary.rules_exercised]
+    stdout.print(f"rules exercised: {len(summary.rules_exercised)} of {len(witnessed)} the events witness"
+                 + (f" (never: {', '.join(missing)})" if missing else ""), markup=False)
+    stdout.print(f"level proven: [bold]{level_name(summary.level)}[/]"
+                 + (f" (not proven: {', '.join(p for p in LEVEL_PARTS if p not in summary.level)})"
+                    if summary.level != LEVEL_PARTS else ""))
     code = summary.exit_code
-    if code == 0:
-        stdout.print("[bold green]conformant[/]")
-    elif code == 1:
-        stdout.print("[bold red]NONCONFORMANT[/]")
-    elif summary.vacuous:
-        stdout.print("[bold magenta]vacuous run: nothing was compared with the reference[/]")
-    else:
-        stdout.print("[bold magenta]harness or protocol errors[/] (the implementation could not be judged)")
+    if summary.nondeterministic is not None:
+        nd = summary.nondeterministic
+        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) "
+                     f"reproduced it {nd['reproduced']} time(s): " + "; ".join(
+                         f"{r['outcome']} {r['message'] or ''}".strip() for r in nd["replays"]), markup=False)
+    style = {0: "bold green", 1: "bold red", EXIT_NONDETERMINISTIC: "bold red"}.get(code, "bold magenta")
+    head, sep, rest = summary.verdict.partition(":")
+    verdict = (head.upper() + sep + rest) if code in (1, EXIT_NONDETERMINISTIC) else summary.verdict
+    stdout.print(f"[{style}]{verdict}[/]" + (" (the implementation could not be judged)"
+                                             if code == 3 and not summary.vacuous else ""))
 
 
 def json_summary(summary) -> dict[str, Any]:
+    """F-REPORT in one object; the level, skips, reproducers and verdict are in the footer."""
     return {"header": summary.header,
             "results": list(summary.records),
             "stale": list(summary.stale),
@@ -174,7 +202,14 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
     from agspec.conform.cases import coverage
 
     cases = _load_suite(suite_dir)
+    from agspec.conform.items import from_case
+    from agspec.conform.values import value_coverage
+
     cov = coverage(cases)
+    with stderr.status("running every case on the reference for value coverage …"):
+        values = value_coverage([from_case(c) for c in cases])  # F-CONFORM-COVERAGE
+    cov["values"] = values["values"]
+    cov["uncovered"] = cov["uncovered"] + values["uncovered"]
     if fmt == "json":
         emit_json(cov)
     else:
@@ -189,11 +224,17 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
             for ident, ids in cov[group].items():
                 n = len(ids)
                 table.add_row(ident, titles.get(ident, ""), str(n) if n else "[bold red]0[/]")
+        from agspec.conform.values import VALUE_CLASSES
+
+        for entry, ids in cov.get("values", {}).items():
+            n = len(ids)
+            table.add_row(entry, VALUE_CLASSES.get(entry.split(":", 1)[1], "") if entry.startswith("value:") else "",
+                          str(n) if n else "[bold red]0[/]")
         stdout.print(table)
         if cov["uncovered"]:
             stdout.print(f"[bold red]uncovered[/]: {', '.join(cov['uncovered'])}")
         else:
-            stdout.print("[green]every rule and invariant is covered[/]")
+            stdout.print("[green]every rule, invariant, field, action class, event type and value class is covered[/]")
     return EXIT_INVALID if cov["uncovered"] else EXIT_OK
 
 
@@ -202,7 +243,9 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
 
 def check_trace_command(path: str, fmt: str) -> int:
     from agspec.conform.invariants import INVARIANT_IDS, check_trace
+    from agspec.trace.read import _diag as _trace_diag
     from agspec.trace.read import read_trace
+    from agspec.trace.verify import verify as verify_whole
 
     records, diags = read_trace(path)
     if any(d.code in ("AG001", "AG002") and d.line is None for d in diags):
@@ -220,16 +263,20 @@ def check_trace_command(path: str, fmt: str) -> int:
                          "(see `agspec trace validate`)")
         return EXIT_INVALID
     report = check_trace(records)
+    # F-TRACE-CHECK: the whole trace — record count against the horizon, footer metrics recomputed
+    whole = verify_whole(records, path, _trace_diag)
+    ok = report.ok and not whole
     if fmt == "json":
         emit_json({
-            "file": path, "ok": report.ok, "ticks": report.ticks, "agents": report.agents, "states": report.states,
+            "file": path, "ok": ok, "ticks": report.ticks, "agents": report.agents, "states": report.states,
             "checks": report.checks, "records": report.records, "skipped": report.skipped,
             "total_checks": report.total_checks,
             "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}
                            for v in report.violations],
+            "whole_trace": [_d(d) for d in whole],
             "diagnostics": [_d(d) for d in diags],
         })
-        return EXIT_OK if report.ok else EXIT_INVALID
+        return EXIT_OK if ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
                         f"{report.total_checks} checks evaluated")
     table.add_column("Invariant")
@@ -249,8 +296,12 @@ def check_trace_command(path: str, fmt: str) -> int:
         stdout.print(str(v)[len(v.invariant) + 1:], markup=False)
     if len(report.violations) > 30:
         stdout.print(f"  … {len(report.violations) - 30} more violations")
+    for d in whole:
+        stdout.print(d.render(), markup=False)
     stdout.print("[green]all invariants hold[/]" if report.ok else f"[bold red]{len(report.violations)} violation(s)[/]")
-    return EXIT_OK if report.ok else EXIT_INVALID
+    stdout.print(f"[bold red]the trace as a whole is wrong ({len(whole)} problem(s))[/]" if whole
+                 else "[green]record count and footer metrics agree with the records[/]")
+    return EXIT_OK if ok else EXIT_INVALID
 
 
 def _d(d) -> dict[str, Any]:

@@ -9,8 +9,12 @@ from typing import Any
 import click
 
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.conform.lockstep import LEVEL_PARTS
+from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
+from agspec.conform.teardown import exit_on_signals
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
+REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
 
 
 @click.command("diff")
@@ -50,7 +54,8 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     reference if one side is `reference`, else A) and, with --hypothesis-examples, from hypothesis-
     generated joint-action sequences drawn from the masks. States, events, observations, masks and
     the end flag are compared every tick. Exit 0: no divergence; 1: divergent; 3: an implementation
-    failed (crash, timeout, protocol) or nothing was compared; 2: usage.
+    failed (crash, timeout, protocol) or nothing was compared; 5: the divergence does not reproduce
+    on replay (nondeterministic implementation); 2: usage.
     """
     from agspec.conform import diff as D
 
@@ -65,6 +70,8 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
             subjects += D.load_subjects(target, episodes, seed, small=small)
         except Exception as exc:  # CatalogueError, InvalidDocumentError, bad JSON: usage errors
             fail(f"--scenario {target}: {exc}", EXIT_USAGE)
+    # SIGTERM / SIGHUP raise SystemExit, so pair.close() below kills both process groups (F-PROTOCOL-TEARDOWN)
+    click.get_current_context().with_resource(exit_on_signals())
     try:
         pair = D.open_pair(impls[0], impls[1], timeout=impl_timeout)
     except D.ImplementationFailure as exc:
@@ -75,6 +82,9 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     start = time.perf_counter()
     findings: list[D.Finding] = []
     report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.expected_side}
+    # F-CONFORM-LEVELS: what the pair can compare is what both declare
+    proven = [p for p in LEVEL_PARTS if p in pair.parts()]
+    report["level"] = level_name(proven)
     try:
         log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
             f"{pair.expected_side} ({pair.expected_label}); {len(subjects)} instance(s)")
@@ -105,19 +115,26 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         pair.close()
     report["seconds"] = round(time.perf_counter() - start, 3)
 
-    vacuous = report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings
+    vacuous = (report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings) \
+        or not proven
     errors = [f for f in findings if f.run.divergence.where == "error"]
+    flaky = [e for e in report.get("findings", []) if e.get("nondeterministic")]
     code = EXIT_HARNESS if (errors or vacuous) else (EXIT_INVALID if findings else EXIT_OK)
+    if flaky and not vacuous:
+        code = EXIT_NONDETERMINISTIC
     report["exit"] = code
     if quiet:
         emit_json(report)
     else:
         c = report["compared"]
-        summary = (f"{c['episodes']} episode(s), {c['ticks']} ticks compared"
+        summary = (f"level {report['level']}: {c['episodes']} episode(s), {c['ticks']} ticks compared"
                    + (f", {c['hypothesis_examples']} hypothesis sequences" if c["hypothesis_examples"] else "")
                    + f" in {report['seconds']:.1f} s: ")
         if vacuous:
             stdout.print(summary + "[red]nothing was compared[/] (vacuous run)")
+        elif flaky:
+            stdout.print(summary + "[bold red]nondeterministic implementation[/]: the divergence does not reproduce "
+                         "when the same actions are replayed (see the replays above)")
         elif not findings:
             stdout.print(summary + "[green]no divergence[/]")
         else:
@@ -134,6 +151,13 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     d = run.divergence
     entry: dict[str, Any] = {"instance": subject.label, "policy": finding.policy, "divergence": d.to_json(),
                              "ticks": run.ticks, "actions": sum(1 for _ in D.non_idle(run.script))}
+    # F-CONFORM-NONDETERMINISM: the original failure must recur before it is worth shrinking
+    original = reproductions(pair, subject.instance, subject.execution_seed, run.script, d)
+    if original["reproduced"] < original["replays"]:
+        entry["nondeterministic"] = {"original": original, "final": None}
+        if not quiet:
+            _print_nondeterministic(finding, original, None)
+        return entry
     if budget > 0:
         log(f"  shrinking ({budget} replays / {seconds:.0f} s at most) …")
         shrunk = S.shrink(pair, subject.instance, subject.execution_seed, run.script, d, max_checks=budget,
@@ -144,6 +168,10 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     finding.shrunk = shrunk
     final = replay_check(pair, shrunk)
     coerced = final.coerced > 0 if final is not None else False
+    again = reproductions(pair, shrunk.instance, shrunk.execution_seed, shrunk.script, shrunk.divergence,
+                          max(1, shrunk.ticks))
+    if again["reproduced"] < again["replays"]:
+        entry["nondeterministic"] = {"original": original, "final": again}
     title = (f"diff: {pair.expected_label} vs {pair.actual_label}: {shrunk.divergence.where} "
              f"{shrunk.divergence.pointer or ''} after tick {shrunk.divergence.tick}")
     notes = (f"Found by `agspec diff` on {subject.label} with {finding.policy} ({entry['ticks']} ticks, "
@@ -164,8 +192,42 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
                        "reproduces": final is not None and final.divergence is not None,
                        "case": str(path), "reproducer": str(repro) if repro else None}
     if not quiet:
-        _print_counterexample(pair, finding, shrunk, path, entry)
+        if entry.get("nondeterministic"):
+            _print_nondeterministic(finding, original, again)
+        else:
+            _print_counterexample(pair, finding, shrunk, path, entry)
     return entry
+
+
+def reproductions(pair, instance, seed, script, divergence, ticks: int | None = None) -> dict[str, Any]:
+    """Replay ``script`` REPLAYS times; how often the divergence recurs with the same signature."""
+    from agspec.conform import diff as D
+
+    seen = []
+    for _ in range(REPLAYS):
+        try:
+            run = D.replay(pair, instance, seed, script, ticks if ticks is not None else divergence.tick + 1)
+            got = run.divergence
+        except Exception as exc:  # a replay that cannot even run is not a reproduction
+            seen.append({"diverged": False, "error": f"{type(exc).__name__}: {exc}"})
+            continue
+        seen.append({"diverged": got is not None, "tick": got.tick if got else None,
+                     "where": got.where if got else None, "pointer": got.pointer if got else None,
+                     "same": got is not None and got.signature() == divergence.signature()})
+    return {"replays": len(seen), "reproduced": sum(1 for s in seen if s.get("same")), "runs": seen}
+
+
+def _print_nondeterministic(finding, original: dict[str, Any], final: dict[str, Any] | None) -> None:
+    d = finding.run.divergence
+    stdout.print(f"\n[bold red]nondeterministic implementation[/] on {finding.subject.label} with {finding.policy}: "
+                 f"the divergence {d.where} {d.pointer or ''} after tick {d.tick} recurred in "
+                 f"{original['reproduced']} of {original['replays']} replays of the same actions"
+                 + (f", the shrunk counterexample in {final['reproduced']} of {final['replays']}" if final else ""),
+                 markup=True)
+    for k, r in enumerate((final or original)["runs"]):
+        what = (f"diverged after tick {r['tick']}: {r['where']} {r['pointer'] or ''}" if r.get("diverged")
+                else r.get("error") or "no divergence")
+        stdout.print(f"    replay {k + 1}: {what}", markup=False)
 
 
 def replay_check(pair, shrunk):

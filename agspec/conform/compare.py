@@ -27,6 +27,36 @@ REPRO_FORMAT = "agspec-repro/1"
 COMPARED = ("t", "state", "events", "observations", "masks", "applied", "done")
 
 
+# F-TRACE-STATE: the diagnostic fields of the canonical state — bookkeeping no observer sees, compared
+# only when the implementation declares the `diagnostic_state` capability; every other field is behavioural.
+DIAGNOSTIC_FIELDS: dict[str, frozenset[str]] = {
+    "robots": frozenset({"busy_until", "switch_lock", "ee", "q"}),
+    "activities": frozenset({"approach", "process", "retreat"}),
+}
+
+
+def behavioural(state: Any) -> Any:
+    """``state`` without its diagnostic fields (a shallow copy; the input is not modified)."""
+    if not isinstance(state, dict):
+        return state
+    out = dict(state)
+    robots, acts = state.get("robots"), state.get("activities")
+    if isinstance(robots, dict):
+        drop = DIAGNOSTIC_FIELDS["robots"]
+        out["robots"] = {k: {f: v for f, v in r.items() if f not in drop} if isinstance(r, dict) else r
+                         for k, r in robots.items()}
+    if isinstance(acts, list):
+        drop = DIAGNOSTIC_FIELDS["activities"]
+        out["activities"] = [{f: v for f, v in a.items() if f not in drop} if isinstance(a, dict) else a for a in acts]
+    return out
+
+
+def is_diagnostic(pointer: str) -> bool:
+    """Whether a JSON Pointer into the state names a diagnostic field (or a part of one)."""
+    tokens = pointer.split("/")[1:]
+    return len(tokens) >= 3 and tokens[2] in DIAGNOSTIC_FIELDS.get(tokens[0], frozenset())
+
+
 def _canonical(value: Any) -> str | None:
     try:
         return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
@@ -192,7 +222,8 @@ def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
     path = directory / f"{safe}.repro.json"
-    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False) + "\n", encoding="utf-8")
+    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",
+                    encoding="utf-8")
     return path
 
 
@@ -203,14 +234,18 @@ class ReproError(ValueError):
 def load_reproducer(path: str | Path) -> dict[str, Any]:
     """Read and check a reproducer file (F-REPRO); errors name the file and the offending field."""
     path = Path(path)
+    from agspec.conform.protocol import loads
+
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ReproError(f"{path}: file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ReproError(f"{path}: cannot read: {exc}") from None
     except json.JSONDecodeError as exc:
         raise ReproError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    except ValueError as exc:  # NaN / Infinity, nested too deeply
+        raise ReproError(f"{path}: not JSON: {exc}") from None
     if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
         raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
     inst = data.get("instance")
@@ -234,5 +269,5 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
 __all__ = [
     "COMPARED", "MISSING", "Divergence", "first_difference", "iter_differences", "compare_reply", "render_divergence",
     "event_summary", "action_summary", "make_reproducer", "save_reproducer", "load_reproducer", "ReproError",
-    "REPRO_FORMAT", "show", "to_json", "escape", "generalize",
+    "REPRO_FORMAT", "show", "to_json", "escape", "generalize", "DIAGNOSTIC_FIELDS", "behavioural", "is_diagnostic",
 ]

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Protocol, Sequence
 
-from agspec.conform.compare import MISSING, Divergence, compare_reply
+from agspec.conform.compare import MISSING, Divergence, behavioural, compare_reply
 from agspec.formats.actions import IDLE, IllegalAction, option_ids, symbolic
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint
@@ -117,11 +117,19 @@ def robot_order(robots) -> list[str]:
     return sorted(robots, key=lambda r: tuple(int(x) for x in r.split(",")))
 
 
-def applied_actions(reply: Mapping[str, Any], sent: Mapping[str, int], robots: Sequence[str]) -> dict[str, int]:
+def applied_actions(reply: Mapping[str, Any], sent: Mapping[str, int], robots: Sequence[str],
+                    observations: Mapping[str, Any] | None = None) -> dict[str, int]:
     """The actions an implementation applied: its ``applied`` map, else the sent actions minus the
-    ``action_coerced`` ones (F-TRACE ``actions``)."""
+    ``action_coerced`` ones (F-TRACE ``actions``).  Without the events capability (``observations``
+    given), R-ACTION-VALIDATION on its own previous masks: a masked or out-of-range action idles."""
     if isinstance(reply.get("applied"), dict):
         return {r: int(reply["applied"].get(r, 0)) for r in robots}
+    if observations is not None:
+        def legal(r: str, a: int) -> bool:
+            mask = (observations.get(r) or {}).get("mask") if isinstance(observations.get(r), dict) else None
+            return not isinstance(mask, list) or (0 <= a < len(mask) and bool(mask[a]))
+
+        return {r: (int(sent.get(r, 0)) if legal(r, int(sent.get(r, 0))) else 0) for r in robots}
     coerced = {e.get("robot") for e in reply.get("events") or []
                if isinstance(e, dict) and e.get("type") == "action_coerced"}
     return {r: (0 if r in coerced else int(sent.get(r, 0))) for r in robots}
@@ -180,6 +188,12 @@ class Pair:
             return []
         ce, ca = self.expected.capabilities, self.actual.capabilities
         return ["t", "done"] + [part for part, cap in _CAPABILITY_OF if ce.get(cap, False) and ca.get(cap, False)]
+
+    @property
+    def diagnostic(self) -> bool:
+        """F-TRACE-STATE: the state's diagnostic fields are compared only when both sides declare them."""
+        return self.actual is not None and all(impl.capabilities.get("diagnostic_state", False)
+                                               for _, impl in self.sides())
 
     def call(self, side: str, fn, *args):
         try:
@@ -241,6 +255,14 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
     implementation, a failing observer or policy is the caller's bug and propagates."""
     parts = pair.parts()
     run = Run(None)
+    diagnostic = pair.diagnostic
+
+    def compare(t: int, exp: Mapping[str, Any], act: Mapping[str, Any]) -> Divergence | None:
+        if not diagnostic and "state" in parts:  # F-TRACE-STATE: behaviour, not bookkeeping
+            exp = {**exp, "state": behavioural(exp.get("state"))}
+            act = {**act, "state": behavioural(act.get("state"))}
+        return compare_replies(t, exp, act, parts, tolerance)
+
     es, as_ = pair.expected_side, pair.actual_side
     exp_impl, act_impl = pair.expected, pair.actual
 
@@ -262,7 +284,7 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
         shadow = _Shadow(instance, execution_seed)
         simulator = shadow.sim
     if act is not None:
-        run.divergence = compare_replies(-1, exp, act, parts, tolerance)
+        run.divergence = compare(-1, exp, act)
         run.states = 1
     if observer is not None and observer(Step(-1, None, None, exp, act, run.divergence)):
         run.stopped = True
@@ -315,7 +337,7 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
         run.replies = (exp, act)
         if act is not None:
             run.states += 1
-            run.divergence = compare_replies(t, exp, act, parts, tolerance)
+            run.divergence = compare(t, exp, act)
         if observer is not None and observer(Step(t, joint, observations, exp, act, run.divergence)):
             run.stopped = True
         if run.divergence is not None or run.stopped:

@@ -20,7 +20,7 @@ from typing import Any, Iterable, Mapping
 
 import yaml
 
-from agspec.conform.protocol import validate
+from agspec.conform.protocol import loads, validate
 
 
 class ExpectError(ValueError):
@@ -48,11 +48,13 @@ def load_expectations(path: str | Path) -> dict[str, Expected]:
         raise ExpectError(f"{path}: cannot read: {exc}") from None
     try:
         if path.suffix == ".json":
-            data = json.loads(text)
+            data = loads(text)
         else:
             data = yaml.safe_load(text)
     except json.JSONDecodeError as exc:
         raise ExpectError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    except ValueError as exc:  # NaN / Infinity, nested too deeply
+        raise ExpectError(f"{path}: not JSON: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else str(path)

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from agspec.conform import protocol
-from agspec.conform.protocol import ProtocolError
+from agspec.conform.protocol import ProtocolError, Unsupported
 from agspec.conform.serve import Server
 
 Reply = dict[str, Any]
@@ -94,7 +94,8 @@ class Implementation:
             if problems:  # a request we built is wrong: an agspec bug, reported loudly
                 raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
         try:
-            reply = self._exchange(msg, self.start_timeout if cmd == "start" else None)
+            # start and load may build a whole model (interpreter start-up, instance compilation)
+            reply = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
             if self.on_message:
                 self.on_message("<-", cmd, reply)
             if self.validate:
@@ -214,9 +215,15 @@ class PythonImpl(Implementation):
             raise ProtocolError("exception", f"the adapter raised {type(exc).__name__}: {exc}", stderr=tb)
         if self.isolate:
             try:
-                reply = json.loads(protocol.encode(reply))
-            except (TypeError, ValueError) as exc:
+                text = protocol.encode(reply)
+            except RecursionError:
+                raise ProtocolError("too_deep", f"the {msg['cmd']} reply nests deeper than {protocol.MAX_DEPTH} levels")
+            except ValueError as exc:
+                code = "non_finite" if "Out of range float" in str(exc) else "malformed_json"
+                raise ProtocolError(code, f"the {msg['cmd']} reply is not plain JSON: {exc}")
+            except TypeError as exc:
                 raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not plain JSON: {exc}")
+            reply = _decode(text, msg["cmd"], "")
         if not isinstance(reply, dict):
             raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {reply!r:.80}")
         _check_seq(msg, reply, self._seq)
@@ -241,6 +248,21 @@ class ReferenceImpl(PythonImpl):
     def simulator(self):
         """The interpreter behind the server (what a ``global`` policy reads), or None before ``load``."""
         return self.adapter.sim if self.adapter is not None else None
+
+
+def _decode(text: str, cmd: str, stderr: str | Callable[[], str]) -> Any:
+    """One reply line through the strict decoder; every malformation is the simulator's protocol error."""
+    shown = text if len(text) <= 120 else text[:117] + "..."
+    try:
+        return protocol.loads(text)
+    except protocol.NonFinite as exc:
+        code, why = "non_finite", str(exc)
+    except protocol.TooDeep as exc:
+        code, why = "too_deep", str(exc)
+    except json.JSONDecodeError as exc:
+        code, why = "malformed_json", f"not JSON ({exc.msg})"
+    raise ProtocolError(code, f"the {cmd} reply is malformed: {why}: {shown!r}",
+                        stderr=stderr() if callable(stderr) else stderr)
 
 
 def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:
@@ -290,7 +312,7 @@ class SubprocessImpl(Implementation):
 
     def _open(self) -> None:
         if self.restarts > self.max_restarts:
-            raise ProtocolError("spawn", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
+            raise ProtocolError("gave_up", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
                                 stderr=self.stderr_tail())
         try:
             self.proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -373,12 +395,7 @@ class SubprocessImpl(Implementation):
             text = raw.decode("utf-8", "replace").strip()
             if not text:
                 continue
-            try:
-                reply = json.loads(text)
-            except json.JSONDecodeError as exc:
-                shown = text if len(text) <= 120 else text[:117] + "..."
-                raise ProtocolError("malformed_json", f"a line on stdout is not JSON ({exc.msg}): {shown!r}",
-                                    stderr=self.stderr_tail())
+            reply = _decode(text, msg["cmd"], self.stderr_tail)
             if not isinstance(reply, dict):
                 raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {text[:80]!r}")
             _check_seq(msg, reply, self._seq)
@@ -397,7 +414,9 @@ class SubprocessImpl(Implementation):
                 try:
                     proc.wait(timeout=0.5)
                 except subprocess.TimeoutExpired:
-                    self._kill(proc)
+                    pass
+            # F-PROTOCOL-TEARDOWN: the whole process group goes, also children the simulator left behind
+            self._kill(proc)
         finally:
             for stream in (proc.stdin, proc.stdout, proc.stderr):
                 try:
@@ -407,14 +426,19 @@ class SubprocessImpl(Implementation):
 
     @staticmethod
     def _kill(proc: subprocess.Popen) -> None:
-        """Kill the process group this adapter started (start_new_session) and reap it."""
+        """Kill the process group this adapter started (start_new_session) and reap its leader.
+
+        The group id is the leader's pid and stays reserved while any member lives, so this also
+        reaches children of a leader that has already exited.
+        """
         try:
             os.killpg(proc.pid, signal.SIGKILL)
         except (ProcessLookupError, PermissionError, OSError):
-            try:
-                proc.kill()
-            except OSError:
-                pass
+            if proc.poll() is None:
+                try:
+                    proc.kill()
+                except OSError:
+                    pass
         try:
             proc.wait(timeout=2.0)
         except subprocess.TimeoutExpired:

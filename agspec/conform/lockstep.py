@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 import traceback
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from agspec.conform import compare, driver, invariants
@@ -32,7 +32,10 @@ from agspec.conform.driver import Pair
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.items import Item
 from agspec.conform.policies import ControllerPolicy, ScriptPolicy
-from agspec.conform.protocol import ProtocolError
+from agspec.conform.protocol import ProtocolError, Unsupported
+
+# F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
+LEVEL_PARTS = ("events", "state", "observations", "masks")
 
 
 @dataclass(frozen=True)
@@ -54,11 +57,14 @@ class Result:
     message: str | None = None
     failure: dict[str, Any] | None = None
     ticks: int = 0
-    states: int = 0
+    states: int = 0  # replies compared (any part)
+    compared: dict[str, int] = field(default_factory=lambda: {p: 0 for p in LEVEL_PARTS})
     invariant_checks: int = 0
     expectations: int = 0
     duration_s: float = 0.0
     rendered: str | None = None  # the CommonMark-style text of a failure
+    skip_reason: str | None = None  # the simulator's reason when it answered `unsupported`
+    event_types: set[str] = field(default_factory=set)  # of the reference's run: which rules fired
 
     def record(self, outcome: str | None = None, expected: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The report line (F-REPORT) of this result."""
@@ -69,7 +75,7 @@ class Result:
             "outcome": outcome or self.outcome, "raw_outcome": self.outcome, "message": self.message,
             "duration_s": round(self.duration_s, 6), "ticks": self.ticks,
             "checks": {"states": self.states, "invariant_checks": self.invariant_checks,
-                       "expectations": self.expectations},
+                       "expectations": self.expectations, "compared": dict(self.compared)},
         }
         if expected is not None:
             rec["expected"] = dict(expected)
@@ -110,11 +116,15 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         reference.start()
         pair = Pair(reference, impl, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
                     cache_loads=False)
-        checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False))
+        checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts())
         run = driver.lockstep(pair, item.instance, item.execution_seed, policy, item.ticks,
                               tolerance=opts.tolerance, observer=checker.observe)
         res.ticks = run.ticks
-        if run.failure is not None:
+        if run.failure is not None and isinstance(run.failure.__cause__, Unsupported):
+            # F-PROTOCOL-UNSUPPORTED: skipped with the simulator's reason
+            res.outcome, res.message = "skip", f"unsupported: {run.failure.__cause__.reason}"
+            res.skip_reason = run.failure.__cause__.reason
+        elif run.failure is not None:
             cause = run.failure.__cause__
             if run.failure.side != pair.actual_side or not isinstance(cause, ProtocolError):
                 raise RuntimeError(run.failure.message) from cause  # the reference failed: a harness error
@@ -123,6 +133,9 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             raise RuntimeError(f"the reference refused step {run.ticks - 1} too: {run.both_failed}")
         elif run.invalid:
             raise RuntimeError(f"the item's script is invalid at {run.invalid}")
+        return res
+    except Unsupported as exc:
+        res.outcome, res.message, res.skip_reason = "skip", f"unsupported: {exc.reason}", exc.reason
         return res
     except ProtocolError as exc:
         _protocol_error(res, item, exc, -1)
@@ -154,8 +167,12 @@ class _Checker:
     """The observer of a conformance item: after every reply, the driver's divergence, the case's
     expectations and the invariants on the implementation's own trace records (F-CONFORM)."""
 
-    def __init__(self, item: Item, impl: Implementation, opts: Options, res: Result, use_state: bool):
+    def __init__(self, item: Item, impl: Implementation, opts: Options, res: Result, use_state: bool,
+                 parts: list[str]):
         self.item, self.impl, self.opts, self.res = item, impl, opts, res
+        self.parts = [p for p in LEVEL_PARTS if p in parts]
+        # events the simulator did not declare are null, never [] (INV-* then derive them from the states)
+        self.events = bool(impl.capabilities.get("events"))
         self.ctx = invariants.Context.from_instance(item.instance) if use_state else None
         self.sent: list[dict[str, int]] = []
         self.history: deque = deque(maxlen=max(0, opts.context))
@@ -166,18 +183,24 @@ class _Checker:
     def observe(self, step: driver.Step) -> bool:
         t, joint, exp, reply, div = step.t, step.joint, step.expected, step.actual, step.divergence
         rec = None
+        events = (reply.get("events") or []) if self.events else None
+        self.res.event_types.update(e.get("type") for e in exp.get("events") or [] if isinstance(e, dict))
+        for part in self.parts:
+            self.res.compared[part] += 1
         if t < 0:
             self.robots = driver.robot_order((exp.get("state") or {}).get("robots") or {})
             if self.ctx is not None:
                 self.prev_rec = {"type": "header", "instance": self.item.instance,
                                  "execution_seed": self.item.execution_seed, "state": reply.get("state"),
-                                 "events": reply.get("events") or []}
+                                 "events": events}
         else:
             self.sent.append(dict(joint))
             if self.ctx is not None:
-                rec = {"type": "tick", "t": t, "actions": driver.applied_actions(reply, joint, self.robots),
+                rec = {"type": "tick", "t": t,
+                       "actions": driver.applied_actions(reply, joint, self.robots,
+                                                         None if self.events else self.prev_obs or {}),
                        "chosen": {r: int(joint.get(r, 0)) for r in self.robots},
-                       "events": reply.get("events") or [], "state": reply.get("state")}
+                       "events": events, "state": reply.get("state")}
                 if self.prev_obs is not None:
                     rec["observations"] = self.prev_obs
         target = rec if t >= 0 else self.prev_rec
@@ -205,9 +228,10 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
         exps = item.case.expectations_at(t)
         if exps:
             res.expectations += len(exps)
-            found = mismatches(item.case, t, reply.get("state") or {}, reply.get("events") or [],
+            found = mismatches(item.case, t, reply.get("state") or {},
+                               (reply.get("events") or []) if impl.capabilities.get("events") else None,
                                observations=reply.get("observations") if impl.capabilities.get("observations") else None,
-                               done=reply.get("done"))
+                               done=reply.get("done"), diagnostic=impl.capabilities.get("diagnostic_state", False))
             failed_expectations = [str(m) for m in found]
     if div is None and not violations and not failed_expectations:
         return False
@@ -275,4 +299,4 @@ def _render_error(item: Item, exc: ProtocolError, tick: int) -> str:
     return text
 
 
-__all__ = ["Options", "Result", "run_item"]
+__all__ = ["Options", "Result", "run_item", "LEVEL_PARTS"]

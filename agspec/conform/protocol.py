@@ -15,13 +15,16 @@ from __future__ import annotations
 import json
 from typing import Any, Mapping
 
+from agspec.formats.jsonl import MAX_DEPTH, NonFinite, TooDeep, depth, loads
 from agspec.formats.schemas import SchemaProblem, schema_id, validate, validator
 
 PROTOCOL = "agspec-protocol/1"
 COMMANDS = ("start", "load", "reset", "step", "stop")
 
 # F-PROTOCOL-ERRORS: error categories (what the outcome "error" reports) and their codes.
-CRASH, TIMEOUT, PROTOCOL_ERROR = "crash", "timeout", "protocol"
+CRASH, TIMEOUT, PROTOCOL_ERROR, GAVE_UP = "crash", "timeout", "protocol", "gave_up"
+UNSUPPORTED = "unsupported"  # error.code of a refusal that is not an error (F-PROTOCOL-UNSUPPORTED)
+UNSUPPORTED_COMMANDS = ("load", "reset")  # a refusal elsewhere could hide a divergence: an error_reply
 CODES: dict[str, tuple[str, str]] = {
     # code: (category, meaning)
     "spawn": (CRASH, "the simulator command cannot be started"),
@@ -37,6 +40,9 @@ CODES: dict[str, tuple[str, str]] = {
     "error_reply": (PROTOCOL_ERROR, "the simulator answered ok: false"),
     "handshake": (PROTOCOL_ERROR, "the start reply announces another protocol version"),
     "schema": (PROTOCOL_ERROR, "a message violates its schema (--validate-protocol)"),
+    "non_finite": (PROTOCOL_ERROR, "a reply contains NaN or Infinity, which JSON does not have"),
+    "too_deep": (PROTOCOL_ERROR, f"a reply nests arrays/objects deeper than {MAX_DEPTH} levels"),
+    "gave_up": (GAVE_UP, "the harness stopped restarting a simulator that failed too often"),
 }
 
 
@@ -57,6 +63,17 @@ class ProtocolError(Exception):
 
     def __str__(self) -> str:
         return f"{self.kind}/{self.code}: {self.message}"
+
+
+class Unsupported(Exception):
+    """F-PROTOCOL-UNSUPPORTED: the simulator declines an instance; the item is skipped with ``reason``.
+
+    Not a failure of the simulator: no restart, nothing counted towards giving up.
+    """
+
+    def __init__(self, cmd: str, reason: str):
+        super().__init__(reason)
+        self.cmd, self.reason = cmd, reason
 
 
 # --------------------------------------------------------------------------- requests
@@ -112,6 +129,9 @@ def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = N
     ok = reply.get("ok")
     if ok is False:
         err = reply.get("error") if isinstance(reply.get("error"), dict) else {}
+        if err.get("code") == UNSUPPORTED and cmd in UNSUPPORTED_COMMANDS:
+            reason = err.get("message")
+            raise Unsupported(cmd, reason if isinstance(reason, str) and reason.strip() else "(no reason given)")
         raise ProtocolError("error_reply", f"the simulator refused `{cmd}`: "
                                            f"[{err.get('code', '?')}] {err.get('message', '(no message)')}",
                             detail=err)
@@ -147,10 +167,13 @@ def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = N
         raise ProtocolError("handshake", f"the simulator speaks {reply.get('protocol')!r}, the harness {PROTOCOL!r}")
 
 
+CAPABILITIES = ("observations", "masks", "privileged_state", "events", "diagnostic_state")
+
+
 def normalize_capabilities(caps: Any) -> dict[str, bool]:
-    """Declared capabilities with the four flags of F-PROTOCOL (absent flags are false)."""
+    """Declared capabilities with the flags of F-PROTOCOL (absent flags are false)."""
     caps = caps if isinstance(caps, dict) else {}
-    return {k: bool(caps.get(k, False)) for k in ("observations", "masks", "privileged_state", "events")}
+    return {k: bool(caps.get(k, False)) for k in CAPABILITIES}
 
 
 # --------------------------------------------------------------------------- schemas (agspec.formats.schemas)
@@ -168,7 +191,8 @@ def validate_reply(cmd: str, msg: Any) -> list[SchemaProblem]:
 
 
 __all__ = [
-    "PROTOCOL", "COMMANDS", "CODES", "ProtocolError", "SchemaProblem", "request", "start", "load", "reset", "step",
+    "PROTOCOL", "COMMANDS", "CODES", "MAX_DEPTH", "NonFinite", "TooDeep", "loads", "depth",
+    "Unsupported", "UNSUPPORTED", "GAVE_UP", "ProtocolError", "SchemaProblem", "request", "start", "load", "reset", "step",
     "stop", "error_reply", "encode", "check_reply", "normalize_capabilities", "validator", "validate",
     "validate_request", "validate_reply", "schema_id",
 ]

@@ -78,6 +78,9 @@ class _State:
         self.problem: str | None = None  # a suite or expectations problem, reported by one failing item
         self.impl: Any = None
         self.opts: Any = None
+        self.ran = 0  # agspec items run, and what they compared (F-CONFORM-LEVELS)
+        self.compared: dict[str, int] = {}
+        self.invariant_checks = 0
 
     def load(self) -> None:
         from agspec.catalogue import OFFICIAL_SCENARIOS
@@ -175,6 +178,10 @@ class AgspecItem(pytest.Item):
 
         state = self.state
         result = run_item(self.conform_item, state.implementation(), state.opts)
+        state.ran += 1
+        state.invariant_checks += result.invariant_checks
+        for part, n in result.compared.items():
+            state.compared[part] = state.compared.get(part, 0) + n
         exp = state.expectations.get(self.conform_item.id)
         outcome = expect.apply(result.outcome, exp)
         self.user_properties.append(("agspec_outcome", outcome))
@@ -255,5 +262,35 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     return result
 
 
+EXIT_VACUOUS = 3  # F-EXIT-CODES: as `agspec conform`, a vacuous run is a harness-class failure
+
+
+def _level(state: _State) -> tuple[str, bool]:
+    from agspec.conform.runner import level_name
+
+    proven = [p for p, n in state.compared.items() if n]
+    return level_name(proven), not proven and state.invariant_checks == 0
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config: pytest.Config) -> None:
+    """F-CONFORM-LEVELS: the level proven and what was compared, after the agspec items ran."""
+    state: _State | None = getattr(config, _STATE_KEY, None)
+    if state is None or not state.ran:
+        return
+    level, vacuous = _level(state)
+    counts = ", ".join(f"{n} {p}" for p, n in state.compared.items())
+    terminalreporter.write_line(f"agspec: level proven {level} (compared: {counts}; "
+                                f"{state.invariant_checks} invariant checks)"
+                                + ("; VACUOUS: nothing behavioural was compared" if vacuous else ""))
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """A vacuous conformance session never passes (exit 3, as `agspec conform`)."""
+    state: _State | None = getattr(session.config, _STATE_KEY, None)
+    if state is not None and state.ran and _level(state)[1] and exitstatus == 0:
+        session.exitstatus = EXIT_VACUOUS
+
+
 __all__ = ["AgspecItem", "AgspecFailure", "AgspecError", "pytest_addoption", "pytest_configure",
-           "pytest_collection_modifyitems", "pytest_report_header"]
+           "pytest_collection_modifyitems", "pytest_report_header", "pytest_terminal_summary",
+           "pytest_sessionfinish"]

@@ -4,8 +4,12 @@
 replay) through :func:`~agspec.conform.lockstep.run_item`, sequentially or across ``jobs`` worker
 processes (each with its own implementation instance), applies the expected-failures file, writes
 the JSONL report incrementally (F-REPORT) and returns a :class:`Summary` whose ``exit_code`` follows
-F-EXIT-CODES: 0 conformant; 1 nonconformant (a fail, an xpass or a stale expectation); 3 harness or
-protocol error (an error outcome and no failure, or a vacuous run that compared nothing).
+F-EXIT-CODES: 0 conformant at the level proven; 1 nonconformant (a fail, an xpass, a stale
+expectation, or less proven than ``--require``); 3 harness or protocol error (an error outcome and
+no failure, or a vacuous run); 5 nondeterministic (the first failure did not reproduce on replay).
+
+The level (F-CONFORM-LEVELS) is what the run compared: the behavioural parts of the replies
+(:data:`~agspec.conform.lockstep.LEVEL_PARTS`) compared at least once, ``full`` when all of them.
 """
 
 from __future__ import annotations
@@ -19,11 +23,29 @@ from typing import Any, Callable, Mapping, Sequence
 from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
-from agspec.conform.lockstep import Options, Result, run_item
+from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
 from agspec.conform.protocol import PROTOCOL
+from agspec.conform.values import rules_exercised
 from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
+EXIT_NONDETERMINISTIC = 5  # F-EXIT-CODES, F-CONFORM-NONDETERMINISM, RES-EXIT-NONDETERMINISTIC
+FULL = "full"
+
+
+def parse_level(text: str) -> tuple[str, ...]:
+    """``--require``: ``full`` or a comma-separated subset of LEVEL_PARTS -> the parts required."""
+    words = [w.strip() for w in (text or "").split(",") if w.strip()]
+    if words == [FULL]:
+        return LEVEL_PARTS
+    bad = [w for w in words if w not in LEVEL_PARTS]
+    if not words or bad:
+        raise ValueError(f"--require {text!r}: expected `full` or a comma-separated list of {', '.join(LEVEL_PARTS)}")
+    return tuple(p for p in LEVEL_PARTS if p in words)
+
+
+def level_name(parts: Sequence[str]) -> str:
+    return FULL if set(parts) >= set(LEVEL_PARTS) else ("+".join(parts) if parts else "none")
 
 
 @dataclass
@@ -37,6 +59,44 @@ class Summary:
     not_run: int = 0
     duration_s: float = 0.0
     header: dict[str, Any] = field(default_factory=dict)
+    require: tuple[str, ...] = ()  # --require: parts the run must prove
+    nondeterministic: dict[str, Any] | None = None  # the evidence (F-CONFORM-NONDETERMINISM)
+
+    @property
+    def compared(self) -> dict[str, int]:
+        """Per behavioural part, how many replies compared it with the reference."""
+        return {p: sum(r.compared.get(p, 0) for r, _ in self.results) for p in LEVEL_PARTS}
+
+    @property
+    def level(self) -> tuple[str, ...]:
+        """F-CONFORM-LEVELS: the parts this run compared at least once."""
+        c = self.compared
+        return tuple(p for p in LEVEL_PARTS if c[p])
+
+    @property
+    def missing(self) -> tuple[str, ...]:
+        """Required parts the run did not prove."""
+        return tuple(p for p in self.require if p not in self.level)
+
+    @property
+    def skips(self) -> dict[str, int]:
+        """Skipped items by reason (the simulator's `unsupported` reasons, missing capabilities)."""
+        out: dict[str, int] = {}
+        for r, o in self.results:
+            if o == "skip":
+                out[r.message or "skipped"] = out.get(r.message or "skipped", 0) + 1
+        return out
+
+    @property
+    def rules_exercised(self) -> list[str]:
+        """Rules whose firing the reference's events witnessed in the items run (values.EVENT_RULES)."""
+        return rules_exercised({t for r, _ in self.results for t in r.event_types})
+
+    @property
+    def reproducers(self) -> list[str]:
+        """Every reproducer file this run wrote (F-REPRO), in item order."""
+        return [r.failure["reproducer"] for r, _ in self.results
+                if r.failure and r.failure.get("reproducer") and r.item.kind != "replay"]
 
     @property
     def ticks(self) -> int:
@@ -56,25 +116,48 @@ class Summary:
 
     @property
     def vacuous(self) -> bool:
-        """Vacuity guard: nothing was compared with the reference."""
-        return self.states == 0
+        """Vacuity guard: no behavioural part was compared and no invariant was checked."""
+        return not self.level and self.invariant_checks == 0
 
     @property
     def exit_code(self) -> int:
         c = self.counts
-        if c["fail"] or c["xpass"] or self.stale:
+        if self.nondeterministic is not None:
+            return EXIT_NONDETERMINISTIC
+        if c["fail"] or c["xpass"] or self.stale or (self.missing and not c["error"] and not self.vacuous):
             return 1
         if c["error"] or self.vacuous:
             return 3
         return 0
 
+    @property
+    def verdict(self) -> str:
+        """The one-line verdict: "conformant" only at level full (F-CONFORM-LEVELS)."""
+        code = self.exit_code
+        if code == 0:
+            skipped = sum(self.skips.values())
+            return ("conformant" if self.level == LEVEL_PARTS else f"conformant at level {level_name(self.level)}") \
+                + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "")
+        if code == EXIT_NONDETERMINISTIC:
+            return "nondeterministic implementation"
+        if code == 1:
+            if self.missing and not (self.counts["fail"] or self.counts["xpass"] or self.stale):
+                return (f"insufficient level: proved {level_name(self.level)}, --require needs "
+                        f"{', '.join(self.missing)}")
+            return "nonconformant"
+        return "vacuous" if self.vacuous else "harness or protocol error"
+
     def footer(self) -> dict[str, Any]:
         return {
             "type": "footer", "complete": self.not_run == 0, "counts": dict(self.counts), "stale": len(self.stale),
-            "total": len(self.results), "not_run": self.not_run, "ticks": self.ticks, "states_compared": self.states,
+            "total": len(self.results), "not_run": self.not_run, "ticks": self.ticks, "replies_compared": self.states,
+            "states_compared": self.compared["state"],
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
-            "duration_s": round(self.duration_s, 3), "conformant": self.exit_code == 0, "vacuous": self.vacuous,
-            "exit_code": self.exit_code,
+            "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
+            "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
+            "duration_s": round(self.duration_s, 3),
+            "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
+            "verdict": self.verdict, "exit_code": self.exit_code,
         }
 
 
@@ -101,15 +184,18 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
         opts: Options | None = None, expectations: Mapping[str, expect_mod.Expected] | None = None,
         stale: Sequence[str] = (), max_fail: int | None = None, report_path: str | None = None,
         options_record: Mapping[str, Any] | None = None, impl: Implementation | None = None,
-        on_result: Callable[[Result, str], None] | None = None) -> Summary:
+        on_result: Callable[[Result, str], None] | None = None, require: Sequence[str] = (),
+        replays: int = 1) -> Summary:
     """Run ``items``; results are reported through ``on_result`` as they complete.
 
     ``impl`` may be given (an already constructed implementation, used when ``jobs`` is 1); otherwise
     it is made from ``impl_spec``.  ``max_fail``: stop after that many failing outcomes (``-x`` = 1).
+    ``require``: the parts the run must prove (``--require``); ``replays``: how often the first failing
+    item is run again to tell a reproducible failure from a nondeterministic one (0: never).
     """
     opts = opts or Options(impl_spec=impl_spec)
     expectations = dict(expectations or {})
-    summary = Summary(stale=list(stale))
+    summary = Summary(stale=list(stale), require=tuple(require))
     t0 = time.monotonic()
     own = impl is None
     impl = impl or make_impl(impl_spec, timeout=timeout, validate=validate)
@@ -121,6 +207,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
         except Exception as exc:  # reported per case as an error; the header says why
             described = {"spec": impl_spec, "error": str(exc)}
         summary.header = header_record(described, dict(options_record or {}), len(items), protocol=PROTOCOL)
+        declared = {"state" if k == "privileged_state" else k for k, v in impl.capabilities.items() if v}
+        summary.header["level"] = level_name([p for p in LEVEL_PARTS if p in declared])
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}
         with ReportWriter(report_path) as report:
             report.write(summary.header)
@@ -151,23 +239,31 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
                                          initargs=(impl_spec, timeout, validate)) as pool:
                     pending = {pool.submit(_run_in_worker, item, opts): i for i, item in enumerate(items)}
                     stop = False
-                    while pending and not stop:
-                        finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                        for fut in finished:
-                            index = pending.pop(fut)
-                            try:
-                                result = fut.result()
-                            except Exception as exc:  # a worker died: the item is a harness error
-                                result = Result(items[index], "error", f"worker process failed: {exc}",
-                                                {"type": "harness", "code": type(exc).__name__,
-                                                 "message": f"worker process failed: {exc}", "tick": None})
-                            if done(index, result) and not stop:
-                                stop = True
-                    if stop:
+                    try:
+                        while pending and not stop:
+                            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                            for fut in finished:
+                                index = pending.pop(fut)
+                                try:
+                                    result = fut.result()
+                                except Exception as exc:  # a worker died: the item is a harness error
+                                    result = Result(items[index], "error", f"worker process failed: {exc}",
+                                                    {"type": "harness", "code": type(exc).__name__,
+                                                     "message": f"worker process failed: {exc}", "tick": None})
+                                if done(index, result) and not stop:
+                                    stop = True
+                    finally:
+                        # also on SIGTERM/SIGHUP/Ctrl-C/an exception: queued items never start; running
+                        # workers finish their item and close their simulator (F-PROTOCOL-TEARDOWN)
                         for fut in pending:
                             fut.cancel()
             summary.results = [by_index[i][:2] for i in sorted(by_index)]
             summary.records = [by_index[i][2] for i in sorted(by_index)]
+            first = next((r for r, o in summary.results if r.outcome == "fail" and r.item.kind != "replay"), None)
+            if first is not None and replays > 0:
+                summary.nondeterministic = _replay_first_failure(first, impl if jobs <= 1 or len(items) <= 1
+                                                                 else None, impl_spec, timeout, validate, opts,
+                                                                 replays)
             summary.not_run = len(items) - len(summary.results)
             for ident in summary.stale:
                 exp = expectations.get(ident)
@@ -181,4 +277,37 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
     return summary
 
 
-__all__ = ["run", "Summary", "FAILING"]
+def failure_signature(result: Result) -> tuple[Any, ...]:
+    """What must recur for a failure to count as reproduced: outcome, tick, place and invariant IDs."""
+    f = result.failure or {}
+    return (result.outcome, f.get("tick"), f.get("type"), f.get("path"), tuple(f.get("ids") or ()))
+
+
+def _replay_first_failure(first: Result, impl: Implementation | None, impl_spec: str, timeout: float,
+                          validate: bool, opts: Options, replays: int) -> dict[str, Any] | None:
+    """F-CONFORM-NONDETERMINISM: run the first failing item ``replays`` more times (no reproducer
+    written); the evidence when any replay does not fail the same way, else None."""
+    import dataclasses
+
+    quiet = dataclasses.replace(opts, repro_dir=None)
+    own = impl is None
+    impl = impl or make_impl(impl_spec, timeout=timeout, validate=validate)
+    want = failure_signature(first)
+    seen: list[dict[str, Any]] = []
+    try:
+        for _ in range(replays):
+            again = run_item(first.item, impl, quiet)
+            seen.append({"outcome": again.outcome, "tick": (again.failure or {}).get("tick"),
+                         "path": (again.failure or {}).get("path"), "message": again.message})
+    finally:
+        if own:
+            impl.close()
+    reproduced = sum(1 for s in seen if (s["outcome"], s["tick"], s["path"]) == (want[0], want[1], want[3]))
+    if reproduced == len(seen):
+        return None
+    return {"id": first.item.id, "first": {"outcome": first.outcome, "tick": want[1], "path": want[3],
+                                           "message": first.message},
+            "replays": seen, "reproduced": reproduced}
+
+
+__all__ = ["run", "Summary", "FAILING", "EXIT_NONDETERMINISTIC", "parse_level", "level_name", "failure_signature"]

@@ -15,13 +15,12 @@ O-ACTION-ENCODING) and any unexpected failure (``internal``, with the traceback 
 
 from __future__ import annotations
 
-import json
 import sys
 import traceback
 from typing import IO, Any, Mapping
 
 from agspec import __version__
-from agspec.conform.protocol import PROTOCOL, encode, error_reply
+from agspec.conform.protocol import PROTOCOL, encode, error_reply, loads
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
@@ -41,7 +40,7 @@ class Server:
 
     def __init__(self, observations: bool = True, masks: bool = True):
         self.capabilities = {"observations": bool(observations), "masks": bool(masks),
-                             "privileged_state": True, "events": True}
+                             "privileged_state": True, "events": True, "diagnostic_state": True}
         self.sim = None
         self.instance: dict[str, Any] | None = None
         self.started = False
@@ -143,7 +142,11 @@ class Server:
 
 
 def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, server: Server | None = None) -> int:
-    """Serve requests line by line until ``stop`` or end of input; returns the exit status (0)."""
+    """Serve requests line by line until ``stop`` or end of input; returns the exit status (0).
+
+    End of input ends the server (F-PROTOCOL-TEARDOWN): a harness killed with SIGKILL leaves its
+    simulators only their closed stdin, and they must exit then.
+    """
     stdin = stdin or sys.stdin
     stdout = stdout or sys.stdout
     server = server or Server()
@@ -151,8 +154,8 @@ def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, ser
         if not line.strip():
             continue
         try:
-            msg = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            msg = loads(line)
+        except (ValueError, UnicodeDecodeError) as exc:  # not JSON, NaN / Infinity, nested too deeply
             reply = error_reply(None, "bad_json", f"the request is not JSON: {exc}")
         else:
             reply = server.handle(msg)

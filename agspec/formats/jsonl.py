@@ -20,6 +20,50 @@ def dumps(record: Mapping[str, Any], default: Callable[[Any], Any] | None = None
                       default=default)
 
 
+MAX_DEPTH = 64  # F-PROTOCOL-ERRORS: no exchanged JSON value nests deeper (a state is < 10 levels)
+
+
+class NonFinite(ValueError):
+    """A JSON text with NaN / Infinity / -Infinity, which RFC 8259 does not allow (F-PROTOCOL-ERRORS)."""
+
+
+class TooDeep(ValueError):
+    """A JSON value nested deeper than :data:`MAX_DEPTH` (F-PROTOCOL-ERRORS)."""
+
+
+def _no_constant(name: str) -> Any:
+    raise NonFinite(f"non-finite number {name} (JSON has no NaN or Infinity)")
+
+
+def depth(value: Any, limit: int = MAX_DEPTH) -> int:
+    """Nesting depth of a decoded JSON value, iteratively (no recursion); stops counting past ``limit``."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        node, d = stack.pop()
+        if isinstance(node, dict):
+            node = list(node.values())
+        if isinstance(node, list):
+            deepest = max(deepest, d)
+            if d <= limit:
+                stack.extend((x, d + 1) for x in node if isinstance(x, (dict, list)))
+    return deepest
+
+
+def loads(text: str | bytes) -> Any:
+    """Decode one JSON text strictly: the one decoder for replies, traces, reproducers and expectations.
+
+    Raises ``json.JSONDecodeError`` (not JSON), :class:`NonFinite` (NaN, Infinity) or :class:`TooDeep`
+    (nested deeper than :data:`MAX_DEPTH`; also when the decoder itself runs out of stack).
+    """
+    try:
+        value = json.loads(text, parse_constant=_no_constant)
+    except RecursionError:
+        raise TooDeep(f"nested deeper than {MAX_DEPTH} levels") from None
+    if depth(value) > MAX_DEPTH:
+        raise TooDeep(f"nested deeper than {MAX_DEPTH} levels")
+    return value
+
+
 @dataclass(frozen=True)
 class Line:
     """One non-blank line: its parsed value, or why it has none (``code`` AG002 not UTF-8, AG003 not JSON)."""
@@ -43,9 +87,11 @@ def _decode(lineno: int, raw: str | bytes) -> Line:
             return Line(lineno, code="AG002", error=f"line is not UTF-8 text (byte {raw[exc.start]:#04x})",
                         col=exc.start + 1)
     try:
-        return Line(lineno, json.loads(raw))
+        return Line(lineno, loads(raw))
     except json.JSONDecodeError as exc:
         return Line(lineno, code="AG003", error=f"not valid JSON: {exc.msg}", col=exc.colno)
+    except ValueError as exc:  # NaN / Infinity, nested too deeply
+        return Line(lineno, code="AG003", error=f"not valid JSON: {exc}")
 
 
 def iter_lines(source: str | Path | Iterable[str | bytes]) -> Iterator[Line]:

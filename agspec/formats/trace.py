@@ -32,7 +32,9 @@ class TraceWriter:
 
     def header(self, *, instance: Mapping[str, Any], fingerprint: str, execution_seed: int | None,
                controller: Mapping[str, Any] | None, initial_state: Mapping[str, Any],
-               initial_events: list, implementation: Mapping[str, Any] | None = None) -> None:
+               initial_events: list, implementation: Mapping[str, Any] | None = None,
+               horizon: int | None = None) -> None:
+        """``horizon``: the epochs the run is to execute (F-TRACE; ``agspec check`` counts the records)."""
         self._write(
             {
                 "type": "header",
@@ -45,6 +47,7 @@ class TraceWriter:
                 "controller": dict(controller or {}),
                 "state": initial_state,
                 "events": initial_events,
+                **({"horizon": int(horizon)} if horizon is not None else {}),
             }
         )
 

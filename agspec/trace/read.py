@@ -32,6 +32,7 @@ TRACE_CODES = {
     "AG605": "the footer disagrees with the trace (tick count) or declares the execution incomplete",
     "AG606": "the trace is empty",
     "AG607": "the header fingerprint is not the fingerprint of its instance",
+    "AG608": "the trace stops before its horizon without terminating, or runs past it (agspec check)",
 }
 
 

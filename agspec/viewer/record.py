@@ -80,7 +80,8 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
                 writer.header(instance=instance, fingerprint=fingerprint(instance), execution_seed=seed,
                               controller=ctl_record, initial_state=reply.get("state"),
                               initial_events=reply.get("events") or [],
-                              implementation=info.get("implementation") or {"name": impl_spec, "version": "?"})
+                              implementation=info.get("implementation") or {"name": impl_spec, "version": "?"},
+                              horizon=limit)
             else:
                 seen = previous[0] if own else step.observations
                 writer.tick(t=t, actions=applied_actions(reply, step.joint, robots), events=reply.get("events") or [],

@@ -24,6 +24,7 @@ This module is test code: nothing in the product imports it.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import sys
 import time
@@ -44,6 +45,12 @@ class Session:
     # callables(msg, reply) -> reply, or a str written verbatim instead of the JSON reply
     after: list[Callable[[dict, dict], Any]] = field(default_factory=list)
     sim: Any = None  # the agspec.interp.tick.Simulator of the loaded instance
+    # the capabilities declared in the start reply (F-PROTOCOL); the reply carries only these parts
+    capabilities: dict[str, bool] = field(default_factory=lambda: {"observations": True, "masks": True,
+                                                                   "privileged_state": True, "events": True,
+                                                                   "diagnostic_state": True})
+    # instance -> reason to answer `unsupported` to its load (F-PROTOCOL-UNSUPPORTED), or None to accept it
+    refuse: Callable[[dict], str | None] | None = None
 
     def on(self, cmd: str, fn: Callable[[dict, "Session"], None]) -> None:
         self.before.setdefault(cmd, []).append(fn)
@@ -401,6 +408,15 @@ def _at_step(t: int, fn: Callable[[], None]) -> Callable[[dict, Session], None]:
     return hook
 
 
+def _step_reply(session: Session, t: int, corrupt: Callable[[dict], Any]) -> None:
+    """Replace the reply whose ``t`` is ``t`` (the step of epoch t - 1) by ``corrupt(reply)``."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        return corrupt(rep) if msg.get("cmd") == "step" and rep.get("t") == t else rep
+
+    session.after.append(reply)
+
+
 def _die() -> None:
     sys.stderr.write("mutant crash: segmentation fault (simulated)\n")
     sys.stderr.flush()
@@ -424,26 +440,167 @@ def hang(session: Session) -> None:
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def garbage(session: Session) -> None:
     """Garbage output: the reply to the step of epoch 1 is not JSON."""
-
-    def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 2:
-            return "Segmentation fault (core dumped) {'t': 2, ok: yes"
-        return rep
-
-    session.after.append(reply)
+    _step_reply(session, 2, lambda rep: "Segmentation fault (core dumped) {'t': 2, ok: yes")
 
 
 @mutant("wrong-seq", "F-PROTOCOL (seq not echoed)", "error", ("protocol/wrong_seq",),
         Workload("catalogue:flow-easy:0", "greedy", 6))
 def wrong_seq(session: Session) -> None:
     """Wrong seq: the reply to the step of epoch 2 echoes a different seq."""
+    _step_reply(session, 3, lambda rep: {**rep, "seq": ["not", "the", "seq", rep.get("seq")]})
+
+
+# =============================================================================================
+# verdicts: capabilities, levels, malformed numbers and nesting, nondeterminism (F-CONFORM-LEVELS,
+# F-PROTOCOL-ERRORS, F-CONFORM-NONDETERMINISM)
+
+
+@mutant("events-only-state-lie", "F-CONFORM-LEVELS (state not proven)", "level", ("level:state",),
+        Workload("pair-1x2-flat.json", "greedy", 12))
+def events_only_state_lie(session: Session) -> None:
+    """Declares events only and sends a state whose `delivered` is wrong: proven at level events, never `state`."""
+    session.capabilities.update(privileged_state=False, observations=False, masks=False)
 
     def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 3:
-            return {**rep, "seq": ["not", "the", "seq", rep.get("seq")]}
+        if msg.get("cmd") in ("reset", "step") and rep.get("ok") and session.sim is not None:
+            from agspec.interp.snapshot import global_state
+
+            state = global_state(session.sim.state)
+            state["delivered"] += 1  # BUG: the undeclared state lies
+            return {**rep, "state": state}
         return rep
 
     session.after.append(reply)
+
+
+@mutant("non-finite", "F-PROTOCOL-ERRORS (NaN in a reply)", "error", ("protocol/non_finite",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def non_finite(session: Session) -> None:
+    """A NaN in the state of the reply to the step of epoch 1 (a bare `NaN` on the wire)."""
+    _step_reply(session, 2, lambda rep: json.dumps({**rep, "state": {**rep["state"], "wip": float("nan")}},
+                                                   separators=(",", ":")))
+
+
+@mutant("deep-nesting", "F-PROTOCOL-ERRORS (nesting)", "error", ("protocol/too_deep",),
+        Workload("catalogue:flow-easy:0", "greedy", 6))
+def deep_nesting(session: Session) -> None:
+    """The reply to the step of epoch 1 carries an event nested 200,000 arrays deep."""
+
+    def nest(rep: dict) -> str:
+        head = json.dumps({k: v for k, v in rep.items() if k != "events"}, separators=(",", ":"))[:-1]
+        return head + ',"events":' + "[" * 200_000 + "]" * 200_000 + "}"
+
+    _step_reply(session, 2, nest)
+
+
+@mutant("rounded-support", "O-SUPPORT-FRACTION", "fail", ("/observations/*/operation_options/*/support",),
+        Workload("helped-3x2-flat.json", "random", 20, seed=0))
+def rounded_support(session: Session) -> None:
+    """Support fraction rounded to two decimals (1/3 -> 0.33): exact for 1/2 and 1/4, wrong for thirds."""
+    from agspec.interp import observe, tick
+
+    orig = observe.observation
+
+    def observation(state, model, cell, options, mask):
+        obs = orig(state, model, cell, options, mask)
+        for opt in obs["operation_options"]:
+            opt["support"] = round(opt["support"], 2)  # BUG: a formatting shortcut
+        return obs
+
+    tick.observation = observation
+
+
+_FIRST_EPISODE = {"done": False}
+
+
+@mutant("nondeterministic", "F-CONFORM-NONDETERMINISM", "fail", ("nondeterministic",),
+        Workload("pair-1x2-flat.json", "greedy", 8))
+def nondeterministic(session: Session) -> None:
+    """Diverges (WIP off by one after tick 2) in the first episode it runs only: a replay does not reproduce it."""
+
+    def reply(msg: dict, rep: dict) -> Any:
+        if msg.get("cmd") == "step" and rep.get("t") == 3 and not _FIRST_EPISODE["done"]:
+            _FIRST_EPISODE["done"] = True
+            return {**rep, "state": {**rep["state"], "wip": rep["state"]["wip"] + 1}}
+        return rep
+
+    session.after.append(reply)
+
+
+# =============================================================================================
+# honest simulators that implement less than everything: they must pass at their level
+
+
+@dataclass(frozen=True)
+class Honest:
+    name: str
+    level: str  # the conformance level (F-CONFORM-LEVELS) the harness must report for it
+    description: str
+    apply: Callable[[Session], None]
+    workload: Workload
+    skips: int = 0  # items the harness must skip on its workload (F-PROTOCOL-UNSUPPORTED)
+
+
+HONEST: dict[str, Honest] = {}
+
+
+def honest(name: str, level: str, workload: Workload, skips: int = 0):
+    def register(fn: Callable[[Session], None]) -> Callable[[Session], None]:
+        HONEST[name] = Honest(name, level, (fn.__doc__ or "").strip().splitlines()[0], fn, workload, skips)
+        return fn
+
+    return register
+
+
+@honest("state-only", "state", Workload("pair-1x2-flat.json", "greedy", 24))
+def state_only(session: Session) -> None:
+    """Privileged state only, no events: its handoffs start and complete within one tick (zero approach)."""
+    session.capabilities.update(events=False, observations=False, masks=False)
+
+
+@honest("no-events", "state+observations+masks", Workload("pair-1x2-flat.json", "greedy", 24))
+def no_events(session: Session) -> None:
+    """State, observations and masks, but no events (and so no `applied`): coercions are not reported."""
+    session.capabilities.update(events=False)
+
+
+@honest("events-only", "events", Workload("pair-1x2-flat.json", "greedy", 24))
+def events_only(session: Session) -> None:
+    """Events only: no state, observations or masks."""
+    session.capabilities.update(privileged_state=False, observations=False, masks=False)
+
+
+@honest("own-bookkeeping", "full", Workload("pair-1x2-flat.json", "greedy", 24))
+def own_bookkeeping(session: Session) -> None:
+    """Same behaviour, own bookkeeping: no switch lock is 0 (not -1), an idle robot's busy_until is 0, no poses,
+    an activity's phases are not split."""
+    session.capabilities["diagnostic_state"] = False
+
+    def reply(msg: dict, rep: dict) -> Any:
+        state = rep.get("state") if isinstance(rep, dict) else None
+        if state:
+            for r in state["robots"].values():
+                r["switch_lock"] = max(0, r["switch_lock"])
+                r["busy_until"] = r["busy_until"] if r["busy_until"] > state["t"] else 0
+                r["ee"], r["q"] = [0.0, 0.0], []
+            for a in state["activities"]:  # phases folded into one: only start and end are behaviour
+                a["approach"], a["process"], a["retreat"] = 0, a["end"] - a["start"], 0
+        return rep
+
+    session.after.append(reply)
+
+
+@honest("official-only", "full", Workload("catalogue:flow-easy:0", "greedy", 6), skips=1)
+def official_only(session: Session) -> None:
+    """Implements only the official catalogue instances: answers `unsupported` to any other instance."""
+    session.refuse = lambda inst: (None if str(inst.get("id", "")).startswith("ag32-")
+                                   else "only the official AssemblyGrid v1 catalogue instances are implemented")
+
+
+def apply_honest(name: str, session: Session) -> None:
+    if name not in HONEST:
+        raise KeyError(f"unknown honest variant {name!r}; known: {', '.join(sorted(HONEST))}")
+    HONEST[name].apply(session)
 
 
 def apply(name: str, session: Session) -> None:

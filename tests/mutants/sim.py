@@ -41,8 +41,17 @@ class Server:
     def _snapshot(self, sim, events: list) -> dict[str, Any]:
         from agspec.interp.snapshot import global_state
 
-        return {"t": sim.t, "state": global_state(sim.state), "events": events, "observations": sim.observe(),
-                "masks": sim.masks(), "done": sim.done}
+        caps = self.session.capabilities
+        out: dict[str, Any] = {"t": sim.t, "done": sim.done}
+        if caps["privileged_state"]:
+            out["state"] = global_state(sim.state)
+        if caps["events"]:
+            out["events"] = events
+        if caps["observations"]:
+            out["observations"] = sim.observe()
+        if caps["masks"]:
+            out["masks"] = sim.masks()
+        return out
 
     def handle(self, msg: dict[str, Any]) -> dict[str, Any]:
         seq = msg.get("seq")
@@ -54,11 +63,15 @@ class Server:
 
             return {"seq": seq, "ok": True, "protocol": PROTOCOL,
                     "implementation": {"name": self.name, "version": __version__, "language": "python"},
-                    "capabilities": {"observations": True, "masks": True, "privileged_state": True, "events": True}}
+                    "capabilities": dict(self.session.capabilities)}
         if cmd == "load":
             from agspec.interp.tick import Simulator
 
             self.instance = msg.get("instance")
+            refusal = self.session.refuse(self.instance) if self.session.refuse else None
+            if refusal:  # F-PROTOCOL-UNSUPPORTED: decline, stay alive
+                self.session.sim = None
+                return _error(seq, "unsupported", refusal)
             try:
                 self.session.sim = Simulator(self.instance)
             except Exception as exc:  # a bad instance is a request error, not a crash
@@ -79,7 +92,10 @@ class Server:
             if not isinstance(actions, dict):
                 return _error(seq, "bad-request", "actions must be an object robot id -> int")
             result = sim.step({str(k): int(v) for k, v in actions.items()})
-            return {"seq": seq, "ok": True, **self._snapshot(sim, result.events), "applied": dict(result.applied)}
+            reply = {"seq": seq, "ok": True, **self._snapshot(sim, result.events)}
+            if self.session.capabilities["events"]:  # without events, `applied` is not sent either
+                reply["applied"] = dict(result.applied)
+            return reply
         if cmd == "stop":
             return {"seq": seq, "ok": True}
         return _error(seq, "unknown-command", f"unknown cmd {cmd!r}")
@@ -120,21 +136,25 @@ class Server:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mutant", default=None, help="apply a seeded mutant (see --list)")
-    parser.add_argument("--list", action="store_true", help="list the mutants and exit")
+    parser.add_argument("--honest", default=None, help="run an honest variant (see --list)")
+    parser.add_argument("--list", action="store_true", help="list the mutants and honest variants, and exit")
     args = parser.parse_args(argv)
     if args.list:
         for m in registry.MUTANTS.values():
             print(f"{m.name:24} {m.outcome:5} {m.breaks:40} {m.description}")
+        for h in registry.HONEST.values():
+            print(f"{h.name:24} pass  {h.level:40} {h.description}")
         return 0
     session = registry.Session()
     name = "agspec-mutant-sim"
-    if args.mutant:
-        try:
-            registry.apply(args.mutant, session)
-        except KeyError as exc:
-            print(exc.args[0], file=sys.stderr)
-            return 2
-        name += f"+{args.mutant}"
+    for label, which in (("mutant", args.mutant), ("honest", args.honest)):
+        if which:
+            try:
+                registry.apply(which, session) if label == "mutant" else registry.apply_honest(which, session)
+            except KeyError as exc:
+                print(exc.args[0], file=sys.stderr)
+                return 2
+            name += f"+{which}"
     return Server(session, name).serve(sys.stdin, sys.stdout)
 
 

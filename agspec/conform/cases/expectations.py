@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from agspec.conform.cases.model import Case, _show_path
-from agspec.formats.pointer import MISSING, first_difference, show
+from agspec.conform.compare import is_diagnostic
+from agspec.formats.pointer import MISSING, first_difference, iter_differences, show
 from agspec.formats.pointer import resolve as resolve_pointer
 
 
@@ -55,12 +56,19 @@ class Mismatch:
         return f"{self.file}:{self.line}: {self.message}"
 
 
-def _pointer_mismatches(wanted: Mapping[str, Any], doc: Any) -> list[tuple[str, Any, Any]]:
+def _pointer_mismatches(wanted: Mapping[str, Any], doc: Any, diagnostic: bool = True) -> list[tuple[str, Any, Any]]:
     """(pointer, expected, actual) of the first difference under each asserted pointer of ``doc``."""
     out = []
     for pointer, want in wanted.items():
+        if not diagnostic and is_diagnostic(pointer):
+            continue
         got = resolve_pointer(doc, pointer)
-        diff = first_difference(want, got, pointer=pointer) if got is not MISSING else (pointer, want, MISSING)
+        if got is MISSING:
+            diff = (pointer, want, MISSING)
+        elif diagnostic:
+            diff = first_difference(want, got, pointer=pointer)
+        else:  # F-TRACE-STATE: differences inside diagnostic fields do not count
+            diff = next((d for d in iter_differences(want, got, pointer) if not is_diagnostic(d[0])), None)
         if diff:
             out.append(diff)
     return out
@@ -70,15 +78,18 @@ def mismatches(
     case: Case,
     t_after: int,
     state: Mapping[str, Any],
-    events: Sequence[Mapping[str, Any]],
+    events: Sequence[Mapping[str, Any]] | None,
     *,
     observations: Mapping[str, Any] | None = None,
     done: bool | None = None,
+    diagnostic: bool = True,
 ) -> list[Mismatch]:
     """Every failed assertion of ``case`` after the step applied at epoch ``t_after``.
 
     Observation assertions are skipped when ``observations`` is None (the implementation lacks the
-    capability, see ``Case.needs_observations``); ``done`` assertions when ``done`` is None.
+    capability, see ``Case.needs_observations``), event assertions when ``events`` is None (no
+    ``events`` capability: not checked at this level, F-CONFORM-LEVELS); ``done`` assertions when
+    ``done`` is None; state assertions on diagnostic fields unless ``diagnostic`` (F-TRACE-STATE).
     """
     out: list[Mismatch] = []
     file = _show_path(case.source)
@@ -91,18 +102,20 @@ def mismatches(
         def add(kind: str, pointer: str, expected: Any, actual: Any, message: str) -> None:
             out.append(Mismatch(kind, t_after, pointer, expected, actual, file, line, f"{where}: {message}"))
 
-        for at, e, a in _pointer_mismatches(exp.get("state", {}), state):
+        for at, e, a in _pointer_mismatches(exp.get("state", {}), state, diagnostic):
             add("state", at, e, a, f"state {at or '(whole state)'}: expected {show(e)}, got {show(a)}")
         for pointer in exp.get("absent", []):
+            if not diagnostic and is_diagnostic(pointer):
+                continue
             got = resolve_pointer(state, pointer)
             if got is not MISSING:
                 add("absent", pointer, MISSING, got, f"state {pointer}: expected absent, got {show(got)}")
-        patterns = exp.get("events", [])
+        patterns = exp.get("events", []) if events is not None else []
         for i in _match_events(patterns, events):
             near = [ev for ev in events if ev.get("type") == patterns[i].get("type")]
             add("event", "", patterns[i], near or list(events),
                 f"no event matches {show(patterns[i])}; events of this type: {show(near)}")
-        for pattern in exp.get("no_events", []):
+        for pattern in exp.get("no_events", []) if events is not None else []:
             hits = [ev for ev in events if event_matches(pattern, ev)]
             if hits:
                 add("no_event", "", pattern, hits, f"unexpected event {show(hits[0])} (matches {show(pattern)})")

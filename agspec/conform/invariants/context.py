@@ -361,7 +361,12 @@ def _transition(ctx: Context, prev: Json, rec: Json) -> Transition:
     for a in after.activities:
         if a.get("id") not in before.act_by_id:
             started[a.get("id")] = a
-    # Activities that start and complete within this transition (D = 1) appear only as events.
+    # Activities that start and complete within this transition (D = 1) appear only as events; a
+    # simulator that declares no events (record `events` null) has them derived from the two states
+    # instead (F-CONFORM-LEVELS: an invariant never fails for data the simulator did not declare).
+    if rec.get("events") is None:
+        for act in _derived_activities(ctx, before, after, t):
+            started.setdefault(act["id"], act)
     for ev in rec.get("events") or []:
         act = _activity_from_event(ctx, before, ev, t)
         if act is not None and act["id"] not in started:
@@ -374,6 +379,51 @@ def _transition(ctx: Context, prev: Json, rec: Json) -> Transition:
         if int(a.get("end", 0)) <= t + 1 and a["id"] not in before.act_by_id:
             completing.append(_with_sender(a, before))
     return Transition(t=t, started=list(started.values()), completing=completing)
+
+
+def _derived_activities(ctx: Context, before: StateView, after: StateView, t: int) -> list[Json]:
+    """The D = 1 activities of a transition, derived from ``s_t`` and ``s_{t+1}`` alone (no events).
+
+    Only changes that no activity of ``s_t`` or ``s_{t+1}`` explains are derived: an item that moved
+    between two robots (a handoff), a raw token that appeared (a pick), a terminal item that left
+    with its product's delivery (a delivery), an operation newly completed (an operation).
+    """
+    acts = before.activities + after.activities
+    explained = {(a.get("kind"), a.get("item")) for a in acts if a.get("item") is not None}
+    explained |= {("operation", a.get("product"), a.get("operation")) for a in acts if a.get("kind") == "operation"}
+    was = {item: robots[0] for item, robots in before.holders.items()}
+    now = {item: robots[0] for item, robots in after.holders.items()}
+    base = {"start": t, "end": t + 1, "from_event": True, "derived": True}
+    out: list[Json] = []
+    for item in sorted(set(was) & set(now)):
+        if was[item] != now[item] and ("handoff", item) not in explained:
+            parsed = parse_item(item)
+            out.append({**base, "id": f"derived:{t}:handoff:{item}", "kind": "handoff", "item": item,
+                        "members": [was[item], now[item]], "sender": was[item], "receiver": now[item],
+                        "product": parsed[0] if parsed else None, "resources": [f"token:{item}"]})
+    for pid, p in sorted(after.products.items()):
+        old = before.products.get(pid) or {}
+        recipe = ctx.recipes.get(p.get("recipe"))
+        for op in sorted(set(p.get("completed") or []) - set(old.get("completed") or [])):
+            info = recipe.ops.get(op) if recipe else None
+            if ("operation", pid, op) in explained or info is None:
+                continue
+            members = sorted({was[f"{pid}:{tok}"] for tok in info.inputs if f"{pid}:{tok}" in was}
+                             | ({now[f"{pid}:{info.output}"]} if f"{pid}:{info.output}" in now else set()))
+            out.append({**base, "id": f"derived:{t}:operation:{pid}:{op}", "kind": "operation", "members": members,
+                        "product": pid, "operation": op})
+        terminal = f"{pid}:{recipe.terminal}" if recipe else None
+        if (p.get("delivered_at") is not None and old.get("delivered_at") is None and terminal in was
+                and ("deliver", terminal) not in explained):
+            out.append({**base, "id": f"derived:{t}:deliver:{pid}", "kind": "deliver", "members": [was[terminal]],
+                        "product": pid, "item": terminal, "resources": [f"product:{pid}"]})
+    for item in sorted(set(now) - set(was)):
+        parsed = parse_item(item)
+        recipe = ctx.recipe_of(after, parsed[0]) if parsed else None
+        if recipe is not None and parsed[1] in recipe.raw and ("pick", item) not in explained:
+            out.append({**base, "id": f"derived:{t}:pick:{item}", "kind": "pick", "members": [now[item]],
+                        "product": parsed[0], "item": item, "resources": []})
+    return out
 
 
 def _with_sender(act: Json, before: StateView) -> Json:
