@@ -83,7 +83,7 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
     except ValueError as exc:
         raise PolicySpecError(f"--policy {text!r}: {exc}") from None
     script = next((Path(a) for a in argv[1:] if Path(a).suffix and Path(a).is_file()), None)
-    return PolicySpec("command", text, label or Path(argv[0]).name, version,
+    return PolicySpec("command", text, label or (script.stem if script is not None else Path(argv[0]).name), version,
                       _sha256(script) if script is not None else None)
 
 
