@@ -51,7 +51,7 @@ def check_joint(raw: Any, agents: list[str], t: int) -> dict[str, int]:
                                                f"{agents[0]!r}", tick=t, agent=str(agent))
     joint: dict[str, int] = {}
     for agent in agents:
-        if agent not in raw:
+        if agent not in raw:  # RES-POLICY-MISSING-AGENT: unlike A-PZ-STEP, never an implicit idle
             raise PolicyError("missing_agent", f"no action for agent {agent!r}", tick=t, agent=agent)
         value = raw[agent]
         if hasattr(value, "item") and not isinstance(value, (bool, int)):  # NumPy scalars and 0-d arrays
@@ -87,7 +87,8 @@ def run_episode(
     executed as idle and counted, or raises under ``strict`` (F-POLICY-ILLEGAL).
     """
     spec = as_policy(controller)
-    exec_seed = seed if seed is not None else instance.get("seeds", {}).get("execution")  # S-SEEDS
+    # F-POLICY-EVALUATION: the instance's own execution seed (S-SEEDS) and the scenario horizon
+    exec_seed = seed if seed is not None else instance.get("seeds", {}).get("execution")
     session = open_session(spec, instance, exec_seed, timeout=timeout, scenario=scenario, index=index)
     try:
         sim = session.sim

@@ -106,7 +106,7 @@ def test_reference_controller_through_the_runner_is_unchanged():
 @pytest.mark.parametrize("factory, code, agent", [
     ("raises", "exception", None),
     ("unknown_agent", "unknown_agent", "99,99"),
-    ("missing_agent", "missing_agent", "0,0"),
+    ("missing_agent", "missing_agent", "0,0"),  # RES-POLICY-MISSING-AGENT
     ("out_of_range", "bad_action", "0,0"),
     ("hangs", "timeout", None),
 ])
@@ -180,6 +180,7 @@ def test_nondeterministic_policy_is_detected():
     (["-j", "0"], "0"),
 ])
 def test_evaluate_option_checks(args, message):
+    """F-POLICY-INDICES, RES-POLICY-INDICES-IN-SPLIT: bad options exit 2 with a message, before running."""
     r = agspec("evaluate", *args)
     assert r.returncode == 2, r.stderr
     assert message in r.stderr and "Traceback" not in r.stderr
@@ -206,6 +207,7 @@ def campaign(tmp_path_factory):
 
 
 def test_outputs_validate_against_their_schemas(campaign):
+    """F-POLICY-BUNDLE: the bundle and the JSON output validate; identities, instances, repeats recorded."""
     _, out, bundle = campaign
     assert validate("evaluation", out, limit=3) == []
     assert validate("results", bundle, limit=3) == []
@@ -217,7 +219,8 @@ def test_outputs_validate_against_their_schemas(campaign):
 
 
 def test_policy_numbers_equal_an_independent_pettingzoo_loop(campaign):
-    """Done-when of the issue: per-episode numbers equal a plain loop over the PettingZoo env."""
+    """F-POLICY-PYTHON, F-POLICY-EVALUATION: per-episode numbers equal a plain loop over the PettingZoo env
+    reset with the instance's execution seed and run to the horizon."""
     d, _, bundle = campaign
     namespace: dict = {}
     exec(compile(CONTRACT_POLICY, "contract_policy", "exec"), namespace)
@@ -232,6 +235,7 @@ def test_policy_numbers_equal_an_independent_pettingzoo_loop(campaign):
 
 
 def test_paired_comparison_equals_scipy(campaign):
+    """F-POLICY-COMPARISON: interval, t-test and Wilcoxon equal SciPy on the bundle's own numbers."""
     _, out, bundle = campaign
     eps = [e for e in bundle["episodes"] if not e.get("repeat")]
     for ref in ("greedy", "random"):
@@ -276,6 +280,7 @@ def test_from_rerenders_without_running_and_refuses_mixed_bundles(campaign, tmp_
 
 
 def test_bundle_is_written_incrementally(campaign, tmp_path):
+    """F-POLICY-BUNDLE: records are on disk as episodes end; an interrupted bundle reads back."""
     _, _, bundle = campaign
     head = {k: v for k, v in bundle.items() if k not in ("episodes", "complete", "wall_time", "nondeterminism")}
     w = BundleWriter(tmp_path / "partial.json", head)
@@ -289,6 +294,7 @@ def test_bundle_is_written_incrementally(campaign, tmp_path):
 
 
 def test_report_markdown_latex_and_figures(campaign):
+    """F-POLICY-TABLE (booktabs LaTeX, Markdown) and F-POLICY-FIGURE (rendered and checked as files)."""
     d, _, _ = campaign
     md = agspec("report", str(d / "results.json"), "--to", "markdown")
     assert md.returncode == 0 and "| mine |" in md.stdout and "| Greedy |" in md.stdout and "MAPPO (published)" in md.stdout

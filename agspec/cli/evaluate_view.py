@@ -36,7 +36,7 @@ def check_indices(indices: str | None, split: str | None) -> tuple[str | None, l
         idx = parse_indices(indices, limit=MAX_INDICES)
     except CatalogueError as exc:
         fail(f"--indices: {exc}")
-    names = [split] if split else [s for s in SPLITS if s != "training"]
+    names = [split] if split else [s for s in SPLITS if s != "training"]  # RES-POLICY-INDICES-IN-SPLIT
     home = next((s for s in names if all(k in SPLITS[s] for k in idx)), None)
     if home is None:
         outside = next(k for k in idx if not any(k in SPLITS[s] for s in names))
