@@ -193,7 +193,10 @@ class ProcessSession:
                 proc._exchange({"cmd": "stop", "seq": proc._next_seq()}, 2.0)
             except Exception:
                 pass
-        proc._fail() if proc.proc is not None and proc.proc.poll() is None else proc._shutdown()
+        if proc.proc is not None and proc.proc.poll() is None:
+            proc._fail()  # still running after stop: kill its process group
+        else:
+            proc._shutdown()
 
 
 def validate_message(name: str, message: Any) -> list[str]:
