@@ -175,6 +175,7 @@ def test_nondeterministic_policy_is_detected():
     (["--indices", "1000-1000000000"], "more than"),
     (["--indices", "5000"], "outside"),
     (["--split", "validation", "--indices", "1000"], "outside the split"),
+    (["--indices", "0,1000"], "mixes splits"),
     (["--controller", "nope"], "nope"),
     (["--policy", "missing_file.py:make"], "no file"),
     (["-j", "0"], "0"),

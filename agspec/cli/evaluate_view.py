@@ -39,7 +39,7 @@ def check_indices(indices: str | None, split: str | None) -> tuple[str | None, l
     names = [split] if split else [s for s in SPLITS if s != "training"]  # RES-POLICY-INDICES-IN-SPLIT
     home = next((s for s in names if all(k in SPLITS[s] for k in idx)), None)
     if home is None:
-        outside = next(k for k in idx if not any(k in SPLITS[s] for s in names))
+        outside = next((k for k in idx if not any(k in SPLITS[s] for s in names)), None)
         ranges = ", ".join(f"{s} {SPLITS[s].start}-{SPLITS[s].stop - 1}" for s in names)
         fail(f"--indices: index {outside} is outside the split{'s' if len(names) > 1 else ''} ({ranges})"
              if outside is not None else f"--indices: {indices} mixes splits ({ranges})")
