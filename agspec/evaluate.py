@@ -1,7 +1,7 @@
 """Episodes and evaluations: drive the reference interpreter with a controller (spec chapter 11).
 
 ``run_episode`` runs one instance to its horizon (optionally writing a trace); ``evaluate`` runs
-many (scenario, controller, index) triples in a process pool and summarizes them as the paper
+many (scenario, controller, index) triples through the campaign executor (spec chapter 14) and summarizes them as the paper
 does: mean and 95 % half-width 1.96·s/√n over instances.
 """
 
@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 import statistics
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Mapping
 
+from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.controllers import make_controller
 from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
@@ -84,31 +84,42 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
     return (mean, 1.96 * statistics.stdev(values) / math.sqrt(len(values)))
 
 
-def _job(args: tuple[Mapping[str, Any], str]) -> dict[str, Any]:
-    instance, controller = args
-    return run_episode(instance, controller).metrics
+def _episode(instances: list[Mapping[str, Any]], item: tuple[str, int, int]) -> dict[str, Any]:
+    _, controller, slot = item
+    return run_episode(instances[slot], controller).metrics
 
 
 def evaluate(jobs: Iterable[tuple[str, str, int, Mapping[str, Any]]], workers: int = 1,
-             on_done: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
-    """Run (scenario, controller, index, instance) jobs; results come back in job order."""
+             on_done: Callable[[dict[str, Any]], None] | None = None,
+             executor: ExecutorSpec | None = None) -> list[dict[str, Any]]:
+    """Run (scenario, controller, index, instance) jobs; results come back in job order (CAMP-ORDER).
+
+    ``executor`` says where the episodes run (default: ``workers`` local processes).  Each distinct
+    instance is shipped once (CAMP-SHIP-ONCE), however many controllers run it.  An episode that
+    produced no metrics (its worker died past the retries, or it raised) is a run with ``metrics``
+    None and an ``error`` naming the cause (CAMP-FAULTS).
+    """
     jobs = list(jobs)
+    instances: list[Mapping[str, Any]] = []
+    slots: dict[tuple[str, int], int] = {}
+    items = []
+    for scenario, ctl, index, inst in jobs:
+        slot = slots.get((scenario, index))
+        if slot is None or instances[slot] != inst:
+            slot = slots[(scenario, index)] = len(instances)
+            instances.append(inst)
+        items.append((scenario, ctl, slot))
     runs: list[dict[str, Any]] = []
-    payload = [(inst, ctl) for _, ctl, _, inst in jobs]
-    if workers <= 1:
-        results = map(_job, payload)
-        for (scenario, ctl, index, _), metrics in zip(jobs, results):
-            run = {"scenario": scenario, "controller": ctl, "index": index, "metrics": metrics}
-            runs.append(run)
-            if on_done:
-                on_done(run)
-        return runs
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        for (scenario, ctl, index, _), metrics in zip(jobs, pool.map(_job, payload, chunksize=1)):
-            run = {"scenario": scenario, "controller": ctl, "index": index, "metrics": metrics}
-            runs.append(run)
-            if on_done:
-                on_done(run)
+    spec = executor or ExecutorSpec(jobs=workers)
+    for i, outcome in run_ordered(Task(_episode, instances), items, spec):
+        scenario, ctl, index, _ = jobs[i]
+        run: dict[str, Any] = {"scenario": scenario, "controller": ctl, "index": index,
+                               "metrics": outcome.value if isinstance(outcome, Done) else None}
+        if not isinstance(outcome, Done):
+            run["error"] = f"episode {scenario}/{ctl}/{index} failed: {outcome.message()}"
+        runs.append(run)
+        if on_done:
+            on_done(run)
     return runs
 
 
@@ -116,6 +127,8 @@ def summarize(runs: list[dict[str, Any]], keys: Iterable[str] = ("delivered",)) 
     """Group runs by (scenario, controller) and report mean ± half-width for each metric key."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for run in runs:
+        if run["metrics"] is None:  # a failed episode (CAMP-FAULTS): reported, never averaged
+            continue
         groups.setdefault((run["scenario"], run["controller"]), []).append(run)
     out = []
     for (scenario, ctl), group in groups.items():

@@ -10,7 +10,9 @@ import click
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.campaign.executor import ExecutorError, ExecutorSpec
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
 
 # Metrics shown by `agspec run` in its table: (key, label, format)
@@ -133,18 +135,20 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
 @click.option("--split", type=click.Choice(["final-test", "validation", "catalogue", "geometry-matched"]), default=None,
               help="Instance split (default final-test).")
 @click.option("--indices", default=None, help="Explicit suite indices, e.g. 1000-1049 or 0,3,5-7.")
-@click.option("-j", "--jobs", type=int, default=1, show_default=True, help="Worker processes.")
+@click.option("-j", "--jobs", type=int, default=None, help=JOBS_HELP)
 @click.option("--metric", "metric_keys", multiple=True, default=("delivered",), show_default=True,
               help="Metrics to summarize.")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
 @click.option("--paper", is_flag=True, help="Run what the paper's tables report and compare (writes the report).")
 @click.option("--out-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"), show_default=True,
               help="With --paper: where reproduction.md and reproduction.json are written.")
+@executor_options
 def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None, indices: str | None,
-             jobs: int, metric_keys: tuple[str, ...], fmt: str, paper: bool, out_dir: Path) -> None:
+             jobs: int | None, metric_keys: tuple[str, ...], fmt: str, paper: bool, out_dir: Path,
+             campaign: ExecutorSpec) -> None:
     """Evaluate controllers over many instances: mean ± 95 % interval (1.96·s/√n) per scenario and controller."""
     if paper:
-        _evaluate_paper(jobs, out_dir, fmt)
+        _evaluate_paper(campaign, out_dir, fmt)
         return
     from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS, CatalogueError, load_scenario_bundle, parse_indices
     from agspec.evaluate import evaluate as run_all
@@ -153,8 +157,6 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
 
     if split and indices:
         fail("give either --split or --indices, not both")
-    if jobs < 1:
-        fail("-j must be at least 1")
     try:
         idx = list(parse_indices(indices)) if indices else list(SPLITS[split or "final-test"])
     except ValueError as exc:
@@ -178,10 +180,15 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
     with Progress(TextColumn("[bold]evaluate"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=stderr, disable=not show) as progress:
         task = progress.add_task("episodes", total=len(job_list))
-        runs = run_all(job_list, workers=jobs, on_done=lambda run: progress.advance(task))
+        try:
+            runs = run_all(job_list, executor=campaign, on_done=lambda run: progress.advance(task))
+        except ExecutorError as exc:
+            fail(str(exc))
     summary = summarize(runs, metric_keys)
+    errors = [run["error"] for run in runs if run["metrics"] is None]
     if fmt == "json":
         emit_json({"runs": runs, "summary": summary})
+        _exit_on_errors(errors, quiet=True)
         return
     for key in metric_keys:
         table = Table(title=f"{key}: mean ± 95 % half-width over {len(idx)} instances")
@@ -196,20 +203,34 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
                 row.append("—" if not stat or stat["n"] == 0 else f"{stat['mean']:.2f} ± {stat['half_width']:.2f}")
             table.add_row(*row)
         stdout.print(table)
+    _exit_on_errors(errors, quiet=False)
 
 
-def _evaluate_paper(jobs: int, out_dir: Path, fmt: str) -> None:
+def _exit_on_errors(errors: list[str], quiet: bool) -> None:
+    """Failed episodes are never silent (CAMP-FAULTS): named on stderr, exit 3 (F-EXIT-CODES)."""
+    if not errors:
+        return
+    if not quiet:
+        for message in errors[:20]:
+            stderr.print(f"[bold red]error[/]: {message}")
+    raise SystemExit(EXIT_HARNESS)
+
+
+def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
     """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
-    from agspec.reproduce import default_plan, ours_text, paper_text, run_paper
+    from agspec.reproduce import EpisodeFailures, default_plan, ours_text, paper_text, run_paper
 
-    if jobs < 1:
-        fail("-j must be at least 1")
     total = sum(len(indices) for _, _, indices in default_plan())
     show = fmt == "table" and sys.stderr.isatty()
     with Progress(TextColumn("[bold]paper reproduction"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=stderr, disable=not show) as progress:
         task = progress.add_task("episodes", total=total)
-        report = run_paper(workers=jobs, out_dir=out_dir, on_done=lambda run: progress.advance(task))
+        try:
+            report = run_paper(out_dir=out_dir, executor=campaign, on_done=lambda run: progress.advance(task))
+        except ExecutorError as exc:
+            fail(str(exc))
+        except EpisodeFailures as exc:
+            fail(f"{exc}; nothing was written", EXIT_HARNESS)
     if fmt == "json":
         emit_json(report)
         return
