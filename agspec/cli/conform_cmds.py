@@ -11,7 +11,9 @@ from typing import Any
 
 import click
 
+from agspec.campaign.executor import ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import JOBS_HELP, executor_options
 
 
 # =============================================================================================== conform
@@ -109,13 +111,30 @@ def serve(observations: bool, masks: bool) -> None:
 
 
 @click.command("check")
-@click.argument("trace_path", metavar="TRACE", type=click.Path(dir_okay=False))
+@click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
-def check(trace_path: str, fmt: str) -> None:
-    """Check a trace (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard."""
+@click.option("-j", "--jobs", type=int, default=None, help=JOBS_HELP)
+@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
+              help="With several traces: write one JSON line per trace here, as each is checked.")
+@executor_options
+def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str | None,
+          campaign: ExecutorSpec) -> None:
+    """Check traces (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard.
+
+    One file: its invariant table. A directory (every *.jsonl below it) or several files: a
+    campaign (spec chapter 14), one row per trace, in file order whatever the executor.
+
+    Example: agspec check runs/ -j 2 --report check.jsonl
+    """
+    from pathlib import Path
+
     from agspec.cli import conform_view as view
 
-    raise SystemExit(view.check_trace_command(trace_path, fmt))
+    if len(targets) == 1 and not Path(targets[0]).is_dir() and report_path is None:
+        raise SystemExit(view.check_trace_command(targets[0], fmt))
+    from agspec.cli.check_view import check_many_command
+
+    raise SystemExit(check_many_command(targets, fmt, campaign, report_path))
 
 
 # =============================================================================================== trace

@@ -201,6 +201,7 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
 
 
 def check_trace_command(path: str, fmt: str) -> int:
+    from agspec.campaign.check import diag_record, report_record
     from agspec.conform.invariants import INVARIANT_IDS, check_trace
     from agspec.trace.read import read_trace
 
@@ -212,7 +213,7 @@ def check_trace_command(path: str, fmt: str) -> int:
     fatal = [d for d in diags if not d.code.startswith("AG6")]  # unreadable records: invariants cannot run
     if fatal:
         if fmt == "json":
-            emit_json({"file": path, "ok": False, "diagnostics": [_d(d) for d in diags]})
+            emit_json({"file": path, "ok": False, "diagnostics": [diag_record(d) for d in diags]})
         else:
             for d in fatal[:30]:
                 stderr.print(d.render(), markup=False)
@@ -221,14 +222,7 @@ def check_trace_command(path: str, fmt: str) -> int:
         return EXIT_INVALID
     report = check_trace(records)
     if fmt == "json":
-        emit_json({
-            "file": path, "ok": report.ok, "ticks": report.ticks, "agents": report.agents, "states": report.states,
-            "checks": report.checks, "records": report.records, "skipped": report.skipped,
-            "total_checks": report.total_checks,
-            "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}
-                           for v in report.violations],
-            "diagnostics": [_d(d) for d in diags],
-        })
+        emit_json(report_record(path, report, diags))
         return EXIT_OK if report.ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
                         f"{report.total_checks} checks evaluated")
@@ -251,7 +245,3 @@ def check_trace_command(path: str, fmt: str) -> int:
         stdout.print(f"  … {len(report.violations) - 30} more violations")
     stdout.print("[green]all invariants hold[/]" if report.ok else f"[bold red]{len(report.violations)} violation(s)[/]")
     return EXIT_OK if report.ok else EXIT_INVALID
-
-
-def _d(d) -> dict[str, Any]:
-    return {"code": d.code, "message": d.message, "line": d.line, "pointer": d.pointer}
