@@ -57,12 +57,17 @@ class InvalidInstanceError(ValueError):
 # --------------------------------------------------------------------------- indices
 
 
-def parse_indices(text: str) -> list[int]:
-    """Parse ``"1000-1049,3"`` (ranges inclusive) or a split name into indices, in order, deduplicated."""
+def parse_indices(text: str, limit: int | None = None) -> list[int]:
+    """Parse ``"1000-1049,3"`` (ranges inclusive) or a split name into indices, in order, deduplicated.
+
+    ``limit`` bounds the number of indices before any range is expanded, so ``0-1000000000`` fails
+    at once instead of running forever.
+    """
     text = (text or "").strip()
     if text in SPLITS:
         return list(SPLITS[text])
     out: list[int] = []
+    seen: set[int] = set()
     for part in text.split(","):
         part = part.strip()
         if not part:
@@ -77,7 +82,12 @@ def parse_indices(text: str) -> list[int]:
             ) from None
         if first < 0 or last < first:
             raise CatalogueError(f"invalid index range `{part}`")
-        out.extend(i for i in range(first, last + 1) if i not in out)
+        if limit is not None and len(seen) + (last - first + 1) > limit:
+            raise CatalogueError(f"index list `{text}` has more than {limit} indices")
+        for i in range(first, last + 1):
+            if i not in seen:
+                seen.add(i)
+                out.append(i)
     return out
 
 

@@ -1,23 +1,28 @@
 """Episodes and evaluations: drive the reference interpreter with a controller (spec chapter 11).
 
-``run_episode`` runs one instance to its horizon (optionally writing a trace); ``evaluate`` runs
-many (scenario, controller, index) triples through the campaign executor (spec chapter 14) and summarizes them as the paper
-does: mean and 95 % half-width 1.96·s/√n over instances.
+``run_episode`` runs one instance to its horizon with a reference controller or a user policy
+(optionally writing a trace); ``map_episodes`` is the one episode map of every campaign (through the
+campaign executor, spec chapter 14); ``summarize`` reports as the paper does: mean and 95 %
+half-width 1.96·s/√n over instances.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import statistics
-from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Mapping
+import time
+from dataclasses import dataclass, replace
+from typing import Any, Callable, Iterable, Iterator, Mapping
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
-from agspec.controllers import make_controller
+from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
-from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint
+from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError
+from agspec.policy.sessions import open_session
 
 
 @dataclass(frozen=True)
@@ -25,53 +30,108 @@ class EpisodeResult:
     instance_id: str
     controller: str
     metrics: dict[str, Any]
+    illegal_actions: int = 0  # masked actions executed as idle (R-ACTION-VALIDATION, F-POLICY-ILLEGAL)
+    actions_digest: str = ""  # sha256 of the joint actions in tick order (F-POLICY-DETERMINISM)
+
+
+def as_policy(policy: str | PolicySpec) -> PolicySpec:
+    """A reference controller name or a PolicySpec (F-POLICY-SPEC)."""
+    return policy if isinstance(policy, PolicySpec) else PolicySpec("controller", policy, policy)
+
+
+def check_joint(raw: Any, agents: list[str], t: int) -> dict[str, int]:
+    """F-POLICY-ERRORS: a joint action names every agent once with an integer in 0..113 (O-ACTION-ENCODING)."""
+    if not isinstance(raw, Mapping):
+        raise PolicyError("bad_action", f"the policy returned {type(raw).__name__}, not a mapping agent -> action",
+                          tick=t)
+    known = set(agents)
+    for agent in raw:
+        if agent not in known:
+            raise PolicyError("unknown_agent", f"action for unknown agent {agent!r}; agents are robot ids such as "
+                                               f"{agents[0]!r}", tick=t, agent=str(agent))
+    joint: dict[str, int] = {}
+    for agent in agents:
+        if agent not in raw:  # RES-POLICY-MISSING-AGENT: unlike A-PZ-STEP, never an implicit idle
+            raise PolicyError("missing_agent", f"no action for agent {agent!r}", tick=t, agent=agent)
+        value = raw[agent]
+        if hasattr(value, "item") and not isinstance(value, (bool, int)):  # NumPy scalars and 0-d arrays
+            try:
+                value = value.item()
+            except (TypeError, ValueError):
+                pass
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < N_ACTIONS:
+            raise PolicyError("bad_action", f"action {value!r} of agent {agent!r} is not an integer in "
+                                            f"0..{N_ACTIONS - 1}", tick=t, agent=agent)
+        joint[agent] = value
+    return joint
 
 
 def run_episode(
     instance: Mapping[str, Any],
-    controller: str = "greedy",
+    controller: str | PolicySpec = "greedy",
     *,
     horizon: int | None = None,
     seed: int | None = None,
     trace=None,
     observations_in_trace: bool = False,
     on_tick: Callable[[int, int], None] | None = None,
+    strict: bool = False,
+    timeout: float | None = None,
+    scenario: str | None = None,
+    index: int | None = None,
 ) -> EpisodeResult:
-    """Run one episode; ``trace`` is an optional TraceWriter; ``horizon`` may shorten the run."""
-    sim = Simulator(instance)
+    """Run one episode of a reference controller or a user policy (F-POLICY-RUNNER).
+
+    ``trace`` is an optional TraceWriter; ``horizon`` may shorten the run.  A misbehaving policy
+    raises :class:`~agspec.policy.contract.PolicyError` (F-POLICY-ERRORS); a masked action is
+    executed as idle and counted, or raises under ``strict`` (F-POLICY-ILLEGAL).
+    """
+    spec = as_policy(controller)
+    # F-POLICY-EVALUATION: the instance's own execution seed (S-SEEDS) and the scenario horizon
     exec_seed = seed if seed is not None else instance.get("seeds", {}).get("execution")
-    sim.reset(exec_seed)
-    ctl = make_controller(controller)
-    ctl.reset(exec_seed)
-    limit = sim.model.horizon if horizon is None else min(horizon, sim.model.horizon)
-    if trace is not None:
-        trace.header(
-            instance=instance,
-            fingerprint=fingerprint(instance),
-            execution_seed=exec_seed,
-            controller={"name": ctl.name, "information": ctl.information},
-            initial_state=global_state(sim.state),
-            initial_events=sim.reset_events,
-        )
-    while not sim.done and sim.t < limit:
-        obs = sim.observe()
-        actions = ctl.act(obs, sim if ctl.information == "global" else None)
-        t = sim.t
-        result = sim.step(actions)
+    session = open_session(spec, instance, exec_seed, timeout=timeout, scenario=scenario, index=index)
+    try:
+        sim = session.sim
+        agents = sim.agents()
+        limit = sim.model.horizon if horizon is None else min(horizon, sim.model.horizon)
         if trace is not None:
-            trace.tick(
-                t=t,
-                actions=result.applied,
-                events=result.events,
-                state=global_state(sim.state),
-                observations=obs if observations_in_trace else None,
+            trace.header(
+                instance=instance,
+                fingerprint=fingerprint(instance),
+                execution_seed=exec_seed,
+                controller={"name": session.name, "information": session.information},
+                initial_state=global_state(sim.state),
+                initial_events=sim.reset_events,
             )
-        if on_tick is not None:
-            on_tick(sim.t, limit)
-    metrics = sim.final_metrics()
-    if trace is not None:
-        trace.footer(metrics=metrics)
-    return EpisodeResult(instance.get("id", "?"), ctl.name, metrics)
+        digest = hashlib.sha256()
+        illegal = 0
+        while not sim.done and sim.t < limit:
+            t = sim.t
+            joint = check_joint(session.act(), agents, t)
+            digest.update(json.dumps([joint[a] for a in agents]).encode())
+            step = session.step(joint)
+            coerced = [a for a in agents if step.applied[a] != joint[a]]
+            if coerced and strict:
+                a = coerced[0]
+                raise PolicyError("illegal_action", f"action {joint[a]} of agent {a!r} is masked (O-MASK); "
+                                                    "--strict makes this an error", tick=t, agent=a)
+            illegal += len(coerced)
+            if trace is not None:
+                trace.tick(
+                    t=t,
+                    actions=step.applied,
+                    events=step.events,
+                    state=global_state(sim.state),
+                    observations=session.observations if observations_in_trace else None,
+                )
+            if on_tick is not None:
+                on_tick(sim.t, limit)
+        metrics = sim.final_metrics()
+        if trace is not None:
+            trace.footer(metrics=metrics)
+        return EpisodeResult(instance.get("id", "?"), spec.label, metrics, illegal, digest.hexdigest())
+    finally:
+        session.close()
 
 
 def mean_ci(values: list[float]) -> tuple[float, float]:
@@ -84,39 +144,82 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
     return (mean, 1.96 * statistics.stdev(values) / math.sqrt(len(values)))
 
 
-def _episode(instances: list[Mapping[str, Any]], item: tuple[str, int, int]) -> dict[str, Any]:
-    _, controller, slot = item
-    return run_episode(instances[slot], controller).metrics
+@dataclass(frozen=True)
+class Job:
+    """One episode of a campaign: which policy on which instance, and how (F-POLICY-RUNNER)."""
+
+    scenario: str
+    index: int
+    policy: PolicySpec
+    instance: Mapping[str, Any]
+    strict: bool = False
+    timeout: float | None = None
+    repeat: bool = False  # a second run of the same episode, for F-POLICY-DETERMINISM
 
 
-def evaluate(jobs: Iterable[tuple[str, str, int, Mapping[str, Any]]], workers: int = 1,
-             on_done: Callable[[dict[str, Any]], None] | None = None,
-             executor: ExecutorSpec | None = None) -> list[dict[str, Any]]:
-    """Run (scenario, controller, index, instance) jobs; results come back in job order (CAMP-ORDER).
+def run_job(job: Job) -> dict[str, Any]:
+    """One episode as a record of the results bundle (F-POLICY-BUNDLE); a misbehaving policy gives an
+    ``error`` record instead of stopping the campaign (F-POLICY-ERRORS)."""
+    started = time.perf_counter()
+    record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index}
+    try:
+        result = run_episode(job.instance, job.policy, strict=job.strict, timeout=job.timeout,
+                             scenario=job.scenario, index=job.index)
+        record.update(status="ok", metrics=result.metrics, illegal_actions=result.illegal_actions,
+                      actions_sha256=result.actions_digest, error=None)
+    except (PolicyError, PolicySpecError) as exc:
+        error = exc.record() if isinstance(exc, PolicyError) else PolicyError("setup", str(exc)).record()
+        record.update(status="error", metrics=None, illegal_actions=None, actions_sha256=None, error=error)
+    record["wall_time"] = round(time.perf_counter() - started, 6)
+    if job.repeat:
+        record["repeat"] = True
+    return record
 
-    ``executor`` says where the episodes run (default: ``workers`` local processes).  Each distinct
-    instance is shipped once (CAMP-SHIP-ONCE), however many controllers run it.  An episode that
-    produced no metrics (its worker died past the retries, or it raised) is a run with ``metrics``
-    None and an ``error`` naming the cause (CAMP-FAULTS).
+
+def _run_slot(instances: list[Mapping[str, Any]], item: tuple[Job, int]) -> dict[str, Any]:
+    job, slot = item
+    return run_job(replace(job, instance=instances[slot]))
+
+
+def map_episodes(jobs: list[Job], workers: int = 1, executor: ExecutorSpec | None = None) -> Iterator[dict[str, Any]]:
+    """THE episode map: every campaign's episodes go through here, results in job order (CAMP-ORDER).
+
+    ``executor`` says where they run (spec chapter 14; default ``workers`` local processes).  Each
+    distinct instance is shipped once however many policies run it (CAMP-SHIP-ONCE).  An episode
+    whose worker died past the retries is an ``error`` record with code ``worker`` (CAMP-FAULTS).
+    Leaving the iterator early stops the workers (CAMP-CANCEL).
     """
-    jobs = list(jobs)
     instances: list[Mapping[str, Any]] = []
     slots: dict[tuple[str, int], int] = {}
     items = []
-    for scenario, ctl, index, inst in jobs:
-        slot = slots.get((scenario, index))
-        if slot is None or instances[slot] != inst:
-            slot = slots[(scenario, index)] = len(instances)
-            instances.append(inst)
-        items.append((scenario, ctl, slot))
+    for job in jobs:
+        slot = slots.get((job.scenario, job.index))
+        if slot is None or instances[slot] != job.instance:
+            slot = slots[(job.scenario, job.index)] = len(instances)
+            instances.append(job.instance)
+        items.append((replace(job, instance=None), slot))
+    for i, outcome in run_ordered(Task(_run_slot, instances), items, executor or ExecutorSpec(jobs=workers)):
+        if isinstance(outcome, Done):
+            yield outcome.value
+            continue
+        job = jobs[i]
+        record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index,
+                                  "status": "error", "metrics": None, "illegal_actions": None,
+                                  "actions_sha256": None,
+                                  "error": PolicyError("worker", f"the episode was not run: {outcome.message()}").record(),
+                                  "wall_time": 0.0}
+        if job.repeat:
+            record["repeat"] = True
+        yield record
+
+
+def evaluate(jobs: Iterable[tuple[str, str | PolicySpec, int, Mapping[str, Any]] | Job], workers: int = 1,
+             on_done: Callable[[dict[str, Any]], None] | None = None,
+             executor: ExecutorSpec | None = None) -> list[dict[str, Any]]:
+    """Run (scenario, controller, index, instance) jobs (or :class:`Job` s); results come back in job order."""
+    todo = [j if isinstance(j, Job) else Job(j[0], j[2], as_policy(j[1]), j[3]) for j in jobs]
     runs: list[dict[str, Any]] = []
-    spec = executor or ExecutorSpec(jobs=workers)
-    for i, outcome in run_ordered(Task(_episode, instances), items, spec):
-        scenario, ctl, index, _ = jobs[i]
-        run: dict[str, Any] = {"scenario": scenario, "controller": ctl, "index": index,
-                               "metrics": outcome.value if isinstance(outcome, Done) else None}
-        if not isinstance(outcome, Done):
-            run["error"] = f"episode {scenario}/{ctl}/{index} failed: {outcome.message()}"
+    for run in map_episodes(todo, workers, executor):
         runs.append(run)
         if on_done:
             on_done(run)
@@ -127,18 +230,17 @@ def summarize(runs: list[dict[str, Any]], keys: Iterable[str] = ("delivered",)) 
     """Group runs by (scenario, controller) and report mean ± half-width for each metric key."""
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for run in runs:
-        if run["metrics"] is None:  # a failed episode (CAMP-FAULTS): reported, never averaged
-            continue
         groups.setdefault((run["scenario"], run["controller"]), []).append(run)
     out = []
     for (scenario, ctl), group in groups.items():
         entry: dict[str, Any] = {"scenario": scenario, "controller": ctl, "n": len(group)}
         for key in keys:
-            values = [r["metrics"][key] for r in group if r["metrics"].get(key) is not None]
+            values = [r["metrics"][key] for r in group if r.get("metrics") and r["metrics"].get(key) is not None]
             mean, half = mean_ci([float(v) for v in values])
             entry[key] = {"mean": mean, "half_width": half, "n": len(values)}
         out.append(entry)
     return out
 
 
-__all__ = ["EpisodeResult", "run_episode", "evaluate", "summarize", "mean_ci", "cell_id"]
+__all__ = ["EpisodeResult", "Job", "run_episode", "run_job", "map_episodes", "evaluate", "summarize", "mean_ci",
+           "cell_id", "check_joint"]

@@ -282,7 +282,8 @@ def run_paper(workers: int = 1, out_dir: Path | None = None, plan: list | None =
     :class:`EpisodeFailures` and nothing is written (the report would compare partial numbers)."""
     jobs = list(_jobs(plan if plan is not None else default_plan()))
     runs = evaluate(jobs, workers=workers, on_done=on_done, executor=executor)
-    errors = [r["error"] for r in runs if r["metrics"] is None]
+    errors = [f"{r['scenario']}/{r['controller']}/{r['index']}: {r['error']['message']}"
+              for r in runs if r["metrics"] is None]
     if errors:
         raise EpisodeFailures(errors)
     report = build_report(runs)

@@ -2,7 +2,7 @@
 
 Convention (also described in docs/validate-and-write-recipes.md, "How the docs are tested"):
 in fenced ```console / ```bash blocks, a line starting with ``$ `` is a command, run with bash in a
-scratch directory that links ``catalogue/`` and ``conformance/`` and holds the files of blocks
+scratch directory that links ``catalogue/``, ``conformance/`` and ``examples/`` and holds the files of blocks
 preceded by ``<!-- file: NAME -->``.  Lines after a command are expected output (each must occur in
 stdout+stderr; ``...`` lines are skipped).  ``<!-- test: exit=N -->`` before a block sets the expected
 exit status (default 0), ``<!-- test: slow -->`` marks it slow, ``<!-- test: skip -->`` excludes it.
@@ -83,7 +83,7 @@ def extract(text: str) -> list[Block]:
 
 
 def _scratch(tmp_path: Path) -> Path:
-    for name in ("catalogue", "conformance"):
+    for name in ("catalogue", "conformance", "examples"):
         (tmp_path / name).symlink_to(ROOT / name)
     return tmp_path
 

@@ -28,6 +28,7 @@ COMMANDS = {
     "check": "agspec.cli.conform_cmds:check",
     "trace": "agspec.cli.conform_cmds:trace",
     "render": "agspec.cli.render_cmds:render",
+    "report": "agspec.cli.report_cmds:report",
 }
 
 

@@ -78,12 +78,26 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 @click.option("--trace", "trace_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace exchange format (JSON Lines) to this file.")
 @click.option("--observations/--no-observations", default=False, help="Include every agent's observation in the trace.")
+@click.option("--policy", default=None, metavar="PATH.py:NAME|module:NAME|\"CMD ARGS\"",
+              help="Run a policy instead of a reference controller (spec/13-policy.md).")
+@click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
+@click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
+              help="Seconds a policy may take per decision.")
 def run(target: str, index: int | None, seed: int | None, controller: str, horizon: int | None, fmt: str,
-        trace_path: Path | None, observations: bool) -> None:
-    """Run one episode of SCENARIO (official name or .ag file) or INSTANCE (.json) with a reference controller."""
+        trace_path: Path | None, observations: bool, policy: str | None, strict: bool, timeout: float) -> None:
+    """Run one episode of SCENARIO (official name or .ag file) or INSTANCE (.json) with a reference controller
+    or a policy."""
     from agspec.evaluate import run_episode
     from agspec.interp.observe import SlotOverflow
+    from agspec.policy.contract import PolicyError, PolicySpecError, parse_policy
     from agspec.trace.write import TraceWriter
+
+    try:
+        spec = parse_policy(policy) if policy is not None else None
+    except PolicySpecError as exc:
+        fail(str(exc))
+    if spec is not None:
+        controller = spec.label
 
     if horizon is not None and horizon < 1:
         fail("--horizon must be at least 1")
@@ -100,10 +114,18 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       console=stderr, disable=not show, transient=True) as progress:
             task = progress.add_task(f"{instance['id']} · {controller}", total=total)
-            result = run_episode(instance, controller, horizon=horizon, trace=writer, observations_in_trace=observations,
+            result = run_episode(instance, spec or controller, horizon=horizon, trace=writer,
+                                 observations_in_trace=observations, strict=strict, timeout=timeout,
                                  on_tick=lambda t, limit: progress.update(task, completed=t))
     except SlotOverflow as exc:
         fail(f"action-slot overflow (O-ACTION-ENCODING): {exc}", EXIT_INVALID)
+    except PolicySpecError as exc:
+        fail(str(exc))
+    except PolicyError as exc:
+        where = ", ".join(x for x in (f"tick {exc.tick}" if exc.tick is not None else "",
+                                      f"agent {exc.agent}" if exc.agent else "") if x)
+        fail(f"policy {spec.label if spec else controller} on {instance['id']}{' (' + where + ')' if where else ''}: "
+             f"{exc.message} [{exc.code}]", EXIT_INVALID)
     finally:
         if writer is not None:
             writer.close()
@@ -116,7 +138,8 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
 
         emit_json(result_record(instance, controller, metrics))
         return
-    table = Table(title=f"{instance['id']} · controller {controller} · {metrics['ticks']} ticks")
+    table = Table(title=f"{instance['id']} · {'policy' if spec else 'controller'} {controller} · {metrics['ticks']} ticks"
+                  + (f" · {result.illegal_actions} masked actions run as idle" if result.illegal_actions else ""))
     table.add_column("Measure")
     table.add_column("Value", justify="right")
     for key, label, spec in RUN_ROWS:
@@ -128,92 +151,78 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
         stdout.print(f"trace written to {trace_path}")
 
 
-@click.command("evaluate")
+METRICS = tuple(key for key, _, _ in RUN_ROWS)
+
+
+@click.command("evaluate", epilog="""\b
+Example: your policy beside the references on coalition-medium, with a results bundle:
+  agspec evaluate --policy examples/policies/heuristic.py:make_policy --name heuristic \\
+      --scenario coalition-medium --indices 1000-1004 --out results.json
+Re-render two bundles without running anything:
+  agspec evaluate --from results.json more.json""")
+@click.argument("bundles", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--from", "from_bundles", is_flag=True,
+              help="Read results bundles (the arguments) instead of or before running (F-POLICY-BUNDLE).")
+@click.option("--policy", "policies", multiple=True, metavar="PATH.py:NAME|module:NAME|\"CMD ARGS\"",
+              help="A policy to evaluate beside the references (F-POLICY-SPEC); repeatable.")
+@click.option("--name", "names", multiple=True, help="Label of the --policy of the same position.")
+@click.option("--policy-version", "versions", multiple=True, help="Version recorded for the --policy of the same position.")
 @click.option("--controller", "controllers", multiple=True, type=click.Choice(CONTROLLERS),
-              help="Controllers to evaluate (default: all four).")
+              help="Reference controllers (default: all four).")
 @click.option("--scenario", "scenarios", multiple=True, help="Scenarios (default: the nine official ones).")
 @click.option("--split", type=click.Choice(["final-test", "validation", "catalogue", "geometry-matched"]), default=None,
               help="Instance split (default final-test).")
-@click.option("--indices", default=None, help="Explicit suite indices, e.g. 1000-1049 or 0,3,5-7.")
-@click.option("-j", "--jobs", type=int, default=None, help=JOBS_HELP)
-@click.option("--metric", "metric_keys", multiple=True, default=("delivered",), show_default=True,
-              help="Metrics to summarize.")
+@click.option("--indices", default=None, help="Suite indices inside the split, e.g. 1000-1049 or 1000,1003,1005-1007.")
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
+@click.option("--metric", "metric_keys", multiple=True, type=click.Choice(METRICS), default=None,
+              help="Metrics to show (default delivered; with --policy also admitted completion).")
+@click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
+@click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
+@click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
+              help="Seconds a policy may take per decision (F-POLICY-ERRORS).")
+@click.option("--repeat", "repeats", type=click.IntRange(0, 50), default=1, show_default=True,
+              help="Episodes per scenario each user policy runs twice to detect nondeterminism.")
+@click.option("--no-published", is_flag=True, help="Leave out the paper's published MARL rows.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write a results bundle (written as episodes end).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
 @click.option("--paper", is_flag=True, help="Run what the paper's tables report and compare (writes the report).")
 @click.option("--out-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"), show_default=True,
               help="With --paper: where reproduction.md and reproduction.json are written.")
 @executor_options
-def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None, indices: str | None,
-             jobs: int | None, metric_keys: tuple[str, ...], fmt: str, paper: bool, out_dir: Path,
-             campaign: ExecutorSpec) -> None:
-    """Evaluate controllers over many instances: mean ± 95 % interval (1.96·s/√n) per scenario and controller."""
+def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
+             versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
+             indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
+             timeout: float, repeats: int, no_published: bool, out_path: Path | None, fmt: str, paper: bool,
+             out_dir: Path, campaign: ExecutorSpec) -> None:
+    """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
+    (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
     if paper:
         _evaluate_paper(campaign, out_dir, fmt)
         return
-    from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS, CatalogueError, load_scenario_bundle, parse_indices
-    from agspec.evaluate import evaluate as run_all
-    from agspec.evaluate import summarize
-    from agspec.ir.instance import make_instance
+    from agspec.cli.evaluate_view import Campaign
 
-    if split and indices:
-        fail("give either --split or --indices, not both")
+    if bundles and not from_bundles:
+        fail(f"unexpected argument {bundles[0]}; results bundles are read with --from")
+    if from_bundles and not bundles:
+        fail("--from needs at least one results bundle")
+    if len(names) > len(policies) or len(versions) > len(policies):
+        fail("give at most one --name and one --policy-version per --policy")
+    plan = Campaign.plan(bundles=bundles, policies=policies, names=names, versions=versions,
+                             controllers=controllers, scenarios=scenarios, split=split, indices=indices,
+                             strict=strict, timeout=timeout, repeats=repeats)
     try:
-        idx = list(parse_indices(indices)) if indices else list(SPLITS[split or "final-test"])
-    except ValueError as exc:
+        plan.run(campaign, out_path, show=fmt == "table" and sys.stderr.isatty())
+    except ExecutorError as exc:
         fail(str(exc))
-    controllers = controllers or CONTROLLERS
-    scenarios = scenarios or tuple(OFFICIAL_SCENARIOS)
-    bundles = {}
-    for name in scenarios:
-        try:
-            bundles[name] = load_scenario_bundle(name)
-        except CatalogueError as exc:
-            fail(str(exc))
-    job_list = []
-    for name in scenarios:
-        sc, recipes, profile = bundles[name]
-        for k in idx:
-            inst = make_instance(sc, recipes, profile, index=k)
-            for ctl in controllers:
-                job_list.append((name, ctl, k, inst))
-    show = fmt == "table" and sys.stderr.isatty()
-    with Progress(TextColumn("[bold]evaluate"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=stderr, disable=not show) as progress:
-        task = progress.add_task("episodes", total=len(job_list))
-        try:
-            runs = run_all(job_list, executor=campaign, on_done=lambda run: progress.advance(task))
-        except ExecutorError as exc:
-            fail(str(exc))
-    summary = summarize(runs, metric_keys)
-    errors = [run["error"] for run in runs if run["metrics"] is None]
-    if fmt == "json":
-        emit_json({"runs": runs, "summary": summary})
-        _exit_on_errors(errors, quiet=True)
-        return
-    for key in metric_keys:
-        table = Table(title=f"{key}: mean ± 95 % half-width over {len(idx)} instances")
-        table.add_column("Scenario")
-        for ctl in controllers:
-            table.add_column(ctl, justify="right")
-        for name in scenarios:
-            row = [name]
-            for ctl in controllers:
-                entry = next((s for s in summary if s["scenario"] == name and s["controller"] == ctl), None)
-                stat = entry[key] if entry else None
-                row.append("—" if not stat or stat["n"] == 0 else f"{stat['mean']:.2f} ± {stat['half_width']:.2f}")
-            table.add_row(*row)
-        stdout.print(table)
-    _exit_on_errors(errors, quiet=False)
+    metrics = metric_keys or (("delivered", "completion_rate") if plan.user_labels else ("delivered",))
+    if diagnostics:
+        from agspec.cli.evaluate_view import DIAGNOSTICS
 
-
-def _exit_on_errors(errors: list[str], quiet: bool) -> None:
-    """Failed episodes are never silent (CAMP-FAULTS): named on stderr, exit 3 (F-EXIT-CODES)."""
-    if not errors:
-        return
-    if not quiet:
-        for message in errors[:20]:
-            stderr.print(f"[bold red]error[/]: {message}")
-    raise SystemExit(EXIT_HARNESS)
+        metrics = tuple(dict.fromkeys((*metrics, *DIAGNOSTICS)))
+    plan.render(metrics, fmt, with_published=not no_published)
+    if plan.failed:
+        raise SystemExit(EXIT_INVALID)
 
 
 def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:

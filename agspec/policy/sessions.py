@@ -1,0 +1,212 @@
+"""One episode's decision maker behind one interface (F-POLICY-RUNNER).
+
+A session owns the episode's :class:`~agspec.interp.tick.Simulator` (``sim``), proposes the raw
+joint action of the current epoch (``act``) and advances the simulator with a checked joint action
+(``step``).  The episode loop, the action checks and the counting of illegal actions live in
+:func:`agspec.evaluate.run_episode`, once for every kind of policy.
+
+* :class:`ControllerSession`  a reference controller (chapter 11);
+* :class:`PettingZooSession`  an in-process factory ``NAME(env)`` given that episode's PettingZoo
+  ``ParallelEnv`` (F-POLICY-PYTHON); observations and infos are exactly what ``env.reset`` and
+  ``env.step`` return, and the joint action goes through ``env.step``;
+* :class:`ProcessSession`     a policy process speaking ``agspec-policy/1`` (F-POLICY-PROTOCOL).
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import traceback
+from contextlib import contextmanager
+from typing import Any, Iterator, Mapping, NamedTuple
+
+from agspec.interp.tick import Simulator
+from agspec.policy.contract import PolicyError, PolicySpec, load_factory
+
+POLICY_PROTOCOL = "agspec-policy/1"
+
+
+class Step(NamedTuple):
+    applied: dict[str, int]
+    events: list[dict[str, Any]]
+
+
+@contextmanager
+def deadline(seconds: float | None, what: str, tick: int | None) -> Iterator[None]:
+    """Interrupt an in-process call that takes longer than ``seconds`` (F-POLICY-ERRORS ``timeout``).
+
+    Uses the real-time interval timer, so it works only in a process's main thread (the CLI and the
+    worker processes of the episode map); elsewhere the call is not bounded.
+    """
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expire(signum: int, frame: Any) -> None:
+        raise PolicyError("timeout", f"{what} took longer than {seconds:g} s", tick=tick)
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _raised(what: str, exc: Exception, tick: int | None) -> PolicyError:
+    return PolicyError("exception", f"{what} raised {type(exc).__name__}: {exc}", tick=tick,
+                       detail=traceback.format_exc())
+
+
+class ControllerSession:
+    """A reference controller (C-INFORMATION: the global view only for ``information == "global"``)."""
+
+    def __init__(self, spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, **_: Any):
+        from agspec.controllers import make_controller
+
+        self.sim = Simulator(instance)
+        self.sim.reset(exec_seed)
+        self.controller = make_controller(spec.target)
+        self.controller.reset(exec_seed)
+        self.name, self.information = self.controller.name, self.controller.information
+        self.observations: Mapping[str, Any] | None = None
+
+    def act(self) -> Mapping[str, Any]:
+        self.observations = self.sim.observe()
+        return self.controller.act(self.observations, self.sim if self.information == "global" else None)
+
+    def step(self, joint: Mapping[str, int]) -> Step:
+        result = self.sim.step(joint)
+        return Step(result.applied, result.events)
+
+    def close(self) -> None:
+        pass
+
+
+class PettingZooSession:
+    """F-POLICY-PYTHON: ``factory(env)`` once per episode, then ``policy(observations, infos)`` per epoch."""
+
+    def __init__(self, spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, *,
+                 timeout: float | None = None, **_: Any):
+        try:
+            from agspec.pettingzoo import parallel_env
+        except ImportError as exc:
+            raise PolicyError("setup", f"in-process policies need the PettingZoo adapter: pip install 'agspec[marl]' "
+                                       f"({exc})") from None
+        factory = load_factory(spec)
+        self.env = parallel_env(instance)
+        self.sim = self.env.sim
+        self.name, self.information = spec.label, "local"
+        self.timeout = timeout
+        self.observations = None
+        self._obs, self._infos = self.env.reset(seed=exec_seed)
+        try:
+            with deadline(timeout, f"the policy factory {spec.target}(env)", None):
+                self.policy = factory(self.env)
+        except PolicyError:
+            raise
+        except Exception as exc:
+            raise _raised(f"the policy factory {spec.target}(env)", exc, None) from None
+        if not callable(self.policy):
+            raise PolicyError("setup", f"the policy factory {spec.target}(env) returned "
+                                       f"{type(self.policy).__name__}, not a callable (observations, infos) -> actions")
+
+    def act(self) -> Mapping[str, Any]:
+        t = self.sim.t
+        try:
+            with deadline(self.timeout, "the policy", t):
+                return self.policy(self._obs, self._infos)
+        except PolicyError:
+            raise
+        except Exception as exc:
+            raise _raised("the policy", exc, t) from None
+
+    def step(self, joint: Mapping[str, int]) -> Step:
+        self._obs, _rewards, _terms, _truncs, self._infos = self.env.step(joint)
+        applied = {a: int(info["applied_action"]) for a, info in self._infos.items()}
+        return Step(applied, list(self.env.last_events))
+
+    def close(self) -> None:
+        self.env.close()
+
+
+class ProcessSession:
+    """F-POLICY-PROTOCOL: a policy process, started for the episode and torn down after it."""
+
+    def __init__(self, spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, *,
+                 timeout: float | None = None, scenario: str | None = None, index: int | None = None, **_: Any):
+        from agspec.conform.impl import SubprocessImpl
+
+        self.sim = Simulator(instance)
+        self.sim.reset(exec_seed)
+        self.name, self.information = spec.label, "local"
+        self.observations: Mapping[str, Any] | None = None
+        self.proc = SubprocessImpl(spec.target, timeout or 10.0)
+        self.proc._open()
+        try:
+            reply = self._ask("start", None, timeout=max(timeout or 10.0, 10.0), protocol=POLICY_PROTOCOL)
+            if reply.get("protocol") != POLICY_PROTOCOL:
+                raise PolicyError("protocol", f"the policy announced protocol {reply.get('protocol')!r}, "
+                                              f"expected {POLICY_PROTOCOL!r}")
+            model = self.sim.model
+            self._ask("episode", None, scenario=scenario, index=index, instance_id=instance.get("id"),
+                      execution_seed=exec_seed, agents=self.sim.agents(), grid=[model.rows, model.cols],
+                      horizon=model.horizon)
+        except BaseException:
+            self.close()
+            raise
+
+    def _ask(self, cmd: str, tick: int | None, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
+        from agspec.conform.protocol import ProtocolError
+
+        msg = {"cmd": cmd, "seq": self.proc._next_seq(), **fields}
+        try:
+            reply = self.proc._exchange(msg, timeout)
+        except ProtocolError as exc:
+            self.proc._fail()
+            code = "timeout" if exc.code == "timeout" else ("crash" if exc.kind == "crash" else "protocol")
+            raise PolicyError(code, exc.message.replace("simulator", "policy"), tick=tick, detail=exc.stderr) from None
+        problems = validate_message(f"policy-{cmd}.reply", reply)
+        if problems:
+            raise PolicyError("protocol", f"the {cmd} reply violates schemas/protocol/policy-{cmd}.reply.schema.json: "
+                                          f"{problems[0]}", tick=tick, detail=self.proc.stderr_tail())
+        if reply.get("ok") is False:
+            err = reply.get("error", {})
+            raise PolicyError("protocol", f"the policy answered {cmd} with an error: {err.get('message', '')}",
+                              tick=tick, detail=self.proc.stderr_tail())
+        return reply
+
+    def act(self) -> Mapping[str, Any]:
+        self.observations = self.sim.observe()
+        return self._ask("act", self.sim.t, t=self.sim.t, observations=self.observations)["actions"]
+
+    def step(self, joint: Mapping[str, int]) -> Step:
+        result = self.sim.step(joint)
+        return Step(result.applied, result.events)
+
+    def close(self) -> None:
+        """Ask the process to stop, then tear its process group down whatever it does."""
+        proc = self.proc
+        if proc.proc is not None and proc.proc.poll() is None:
+            try:
+                proc._exchange({"cmd": "stop", "seq": proc._next_seq()}, 2.0)
+            except Exception:
+                pass
+        proc._fail() if proc.proc is not None and proc.proc.poll() is None else proc._shutdown()
+
+
+def validate_message(name: str, message: Any) -> list[str]:
+    """Problems of a policy-protocol message against ``schemas/protocol/{name}.schema.json``."""
+    from agspec.conform.protocol import validate
+
+    return [str(p) for p in validate(f"protocol/{name}", message, limit=3)]
+
+
+SESSIONS = {"controller": ControllerSession, "python": PettingZooSession, "command": ProcessSession}
+
+
+def open_session(spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, **options: Any):
+    """The session for one episode of ``spec`` on ``instance`` (F-POLICY-RUNNER)."""
+    return SESSIONS[spec.kind](spec, instance, exec_seed, **options)
+

@@ -1,0 +1,35 @@
+"""A policy process for tests/test_policy.py: plays the highest legal action; misbehaves on demand.
+
+argv[1] = mode: ok | crash (exit 3 at tick 3) | garbage (non-JSON at tick 3) | hang (at tick 3) |
+wrong-seq | no-handshake.  With a second argument, writes its pid there (to check teardown).
+"""
+
+import json
+import os
+import sys
+import time
+
+mode = sys.argv[1] if len(sys.argv) > 1 else "ok"
+if len(sys.argv) > 2:
+    with open(sys.argv[2], "a") as fh:
+        fh.write(f"{os.getpid()}\n")
+for line in sys.stdin:
+    msg = json.loads(line)
+    reply = {"seq": msg["seq"], "ok": True}
+    if msg["cmd"] == "start":
+        reply["protocol"] = "other/1" if mode == "no-handshake" else msg["protocol"]
+    elif msg["cmd"] == "act":
+        if msg["t"] == 3:
+            if mode == "crash":
+                sys.exit(3)
+            if mode == "garbage":
+                print("this is not json", flush=True)
+                continue
+            if mode == "hang":
+                time.sleep(60)
+            if mode == "wrong-seq":
+                reply["seq"] = "nope"
+        reply["actions"] = {a: max(k for k, ok in enumerate(o["mask"]) if ok) for a, o in msg["observations"].items()}
+    print(json.dumps(reply), flush=True)
+    if msg["cmd"] == "stop":
+        break
