@@ -221,7 +221,7 @@ def test_check_over_a_directory_is_identical_on_every_executor(tmp_path):  # CAM
 
 @pytest.mark.parametrize("args, message", [
     (["--address", "auto"], "need --executor ray"),
-    (["-j", "0"], "-j must be at least 1"),
+    (["-j", "0"], "0 is not in the range"),
     (["--executor", "ray", "--runtime-env", '{"working_dir": [1'], "not JSON or YAML"),
     (["--executor", "ray", "--runtime-env", "missing-env.yaml"], "cannot read it"),
 ])

@@ -113,7 +113,7 @@ def serve(observations: bool, masks: bool) -> None:
 @click.command("check")
 @click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
-@click.option("-j", "--jobs", type=int, default=None, help=JOBS_HELP)
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
 @click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
               help="With several traces: write one JSON line per trace here, as each is checked.")
 @executor_options
