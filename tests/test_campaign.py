@@ -141,7 +141,8 @@ CAMPAIGN_RUNS = [["-j", "1"], ["-j", "2", "--dispatch-seed", "5"], ["--executor"
                  ["--executor", "ray", "-j", "2", "--dispatch-seed", "9"]]
 
 
-TIMING_AND_HOST = ("wall_time", "command", "workers", "host")  # RES-CAMP-TIMING
+# RES-CAMP-TIMING: time, host and how the run was executed may differ; nothing else
+TIMING_AND_HOST = ("wall_time", "command", "workers", "host", "duration_s", "started_at", "jobs", "executor")
 
 
 def _without_timing(doc):
@@ -166,6 +167,20 @@ def test_evaluate_output_and_bundle_are_the_same_on_every_executor(tmp_path):  #
     assert [(r["scenario"], r["controller"], r["index"]) for r in runs] == [
         (s, c, k) for s in ("coalition-easy", "flow-easy") for k in range(3) for c in ("greedy", "random")]
     assert all(r["status"] == "ok" for r in runs)
+
+
+def test_conform_report_and_summary_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, CAMP-ORDER
+    outputs, reports = [], []
+    for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
+        report = tmp_path / f"conform-{n}.jsonl"
+        result = _agspec("conform", "--impl", "agspec serve", "-k", "handoff or support or INV-", "--episodes", "1",
+                         "--ticks", "15", "--format", "json", "--report", str(report), *extra)
+        assert result.returncode == 0, result.stderr
+        outputs.append(_without_timing(json.loads(result.stdout)))
+        reports.append([_without_timing(json.loads(line)) for line in report.read_text().splitlines()])
+    assert outputs[1:] == outputs[:1] * 2 and reports[1:] == reports[:1] * 2
+    ids = [r["id"] for r in reports[0] if r.get("type") not in ("header", "footer", "stale")]
+    assert len(ids) > 3 and reports[0][-1]["counts"]["pass"] == len(ids)
 
 
 def test_paper_reproduction_report_is_identical_on_ray(ray_session, tmp_path):  # CAMP-IDENTICAL

@@ -149,13 +149,19 @@ _CONTEXT: dict[str, Any] = {}  # per pool worker process: its task and context (
 
 
 def _init_pool_worker(task: Task) -> None:
-    context = task.context()
+    try:
+        context = task.context()
+    except Exception as exc:  # deterministic: every item of this worker reports it, none is retried
+        _CONTEXT.update(task=task, setup_error=f"worker setup failed: {describe(exc)}")
+        return
     _CONTEXT.update(task=task, context=context)
     if task.close is not None:  # runs when the worker exits normally, also after a cancelled run
-        Finalize(context, task.close, args=(context,), exitpriority=10)
+        Finalize(None, task.close, args=(context,), exitpriority=10)
 
 
 def _run_in_pool_worker(item: Any) -> tuple[str, Any]:
+    if "setup_error" in _CONTEXT:
+        return "raised", _CONTEXT["setup_error"]
     try:
         return "ok", _CONTEXT["task"].fn(_CONTEXT["context"], item)
     except Exception as exc:
@@ -181,7 +187,12 @@ class PoolBackend:
         return len(self.inflight)
 
     def submit(self, index: int, item: Any) -> None:
-        self.inflight[self.pool.submit(_run_in_pool_worker, item)] = index
+        try:
+            future = self.pool.submit(_run_in_pool_worker, item)
+        except BrokenExecutor:  # broke since the last wait (a worker died idle): the next wait replaces it
+            future = Future()
+            future.set_exception(BrokenExecutor("the pool broke"))
+        self.inflight[future] = index
 
     def wait(self) -> list[Event]:
         finished, _ = wait(list(self.inflight), return_when=FIRST_COMPLETED)

@@ -27,10 +27,15 @@ class _Worker:
 
     def __init__(self, task: Task, shared: Any):
         self.task = Task(task.fn, shared, task.init, task.close)
-        self.context = self.task.context()
-        self.closed = False
+        self.closed, self.setup_error = False, None
+        try:
+            self.context = self.task.context()
+        except Exception as exc:  # deterministic: reported by every item of this actor, never retried
+            self.closed, self.setup_error = True, f"worker setup failed: {describe(exc)}"
 
     def run(self, item: Any) -> tuple[str, Any]:
+        if self.setup_error is not None:
+            return "raised", self.setup_error
         try:
             return "ok", self.task.fn(self.context, item)
         except Exception as exc:

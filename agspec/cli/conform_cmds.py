@@ -26,7 +26,8 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
 @click.option("-k", "keyword", default=None, metavar="EXPR", help="Select cases/episodes by id, title, tag, rule or glob (and/or/not).")
 @click.option("-x", "exitfirst", is_flag=True, help="Stop at the first failure or error.")
 @click.option("--max-fail", type=int, default=None, metavar="N", help="Stop after N failures or errors.")
-@click.option("-j", "--jobs", type=int, default=1, show_default=True, help="Worker processes (each with its own implementation).")
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None,
+              help="Workers, each with its own implementation (default: 1 locally; with --executor ray every CPU).")
 @click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
               help="Write the JSON Lines report (F-REPORT) here, line by line.")
 @click.option("--expect", "expect_path", type=click.Path(dir_okay=False), default=None,
@@ -44,10 +45,11 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
 @click.option("--repro-dir", type=click.Path(file_okay=False), default=".agspec/repro", show_default=True,
               help="Where reproducers of failures are saved.")
 @click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
+@executor_options
 def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
             jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-            repro_dir: str, float_tolerance: float | None) -> None:
+            repro_dir: str, float_tolerance: float | None, campaign: ExecutorSpec) -> None:
     """Check an implementation against the AssemblyGrid v1 reference (F-CONFORM).
 
     Runs the conformance suite and lockstep episodes on the official catalogue; every state is
@@ -57,7 +59,7 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
 
     if coverage:
         raise SystemExit(view.show_coverage(suite_dir, fmt))
-    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("-j", jobs, 1), ("--episodes", episodes, 0),
+    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("--episodes", episodes, 0),
                              ("--ticks", ticks, 0)):
         if value < low or (name == "--impl-timeout" and value <= 0):
             fail(f"{name} must be {'> 0' if name == '--impl-timeout' else f'>= {low}'}, got {value}")
@@ -77,10 +79,11 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
         fail("no case or episode selected" + (f" by -k {keyword!r}" if keyword else ""))
     expectations, stale = view.load_expect(expect_path, universe, suite_loaded)
     options_record = {"impl_timeout": impl_timeout, "k": keyword, "max_fail": max_fail, "jobs": jobs,
+                      "executor": campaign.kind,
                       "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
                       "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
                       "float_tolerance": float_tolerance}
-    summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, jobs=jobs,
+    summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt)
     if fmt == "json":

@@ -13,6 +13,7 @@ from typing import Any, Mapping, Sequence
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from agspec.campaign.executor import ExecutorError, ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 
 MAX_SHOWN = 20  # failure blocks printed in table mode
@@ -78,7 +79,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 # --------------------------------------------------------------------------- running
 
 
-def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, jobs: int,
+def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, campaign: ExecutorSpec,
             expectations: Mapping[str, Any], stale: Sequence[str], max_fail: int | None, report_path: str | None,
             repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str):
     from agspec.conform.impl import ImplSpecError, make_impl
@@ -104,9 +105,12 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
             progress.update(task, advance=1, description=f"{result.item.id} {outcome}")
 
         try:
-            return run(items, impl_spec, timeout=impl_timeout, validate=validate, jobs=jobs, opts=opts,
+            inline = campaign.kind == "local" and (campaign.jobs or 1) <= 1
+            return run(items, impl_spec, timeout=impl_timeout, validate=validate, opts=opts, executor=campaign,
                        expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
-                       options_record=options_record, impl=impl if jobs <= 1 else None, on_result=on_result)
+                       options_record=options_record, impl=impl if inline else None, on_result=on_result)
+        except ExecutorError as exc:
+            fail(str(exc))
         finally:
             impl.close()  # also on Ctrl-C: never leave a simulator process behind
 
