@@ -70,7 +70,9 @@ class RayBackend:
     def __init__(self, task: Task, spec: ExecutorSpec):
         self.started = connect(spec)
         try:
-            self.jobs = spec.jobs or max(1, int(ray.cluster_resources().get("CPU", 1)))
+            # one CPU per actor: more actors than the cluster's CPUs would never be scheduled
+            cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
+            self.jobs = min(spec.jobs or cpus, cpus)
             self.actor_class = ray.remote(num_cpus=1, max_concurrency=2, max_restarts=0)(_Worker)
             # the code travels by reference; the data once through the object store
             self.task = Task(task.fn, None, task.init, task.close)
