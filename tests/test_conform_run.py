@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform.report import read_report
+from agspec.formats.report import read_report
 
 FAKES = Path(__file__).resolve().parent / "fakes"
 SERVE = shutil.which("agspec")

@@ -90,7 +90,7 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
     from agspec.evaluate import run_episode
     from agspec.interp.observe import SlotOverflow
     from agspec.policy.contract import PolicyError, PolicySpecError, parse_policy
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
 
     try:
         spec = parse_policy(policy) if policy is not None else None

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+import yaml
+
 from agspec.conform.protocol import validate
 
 
@@ -36,7 +38,6 @@ class Expected:
 
 def load_expectations(path: str | Path) -> dict[str, Expected]:
     """Read an expectations file (YAML or JSON); errors are located and never tracebacks."""
-    import yaml
 
     path = Path(path)
     try:

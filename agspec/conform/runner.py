@@ -20,7 +20,8 @@ from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import Options, Result, run_item
-from agspec.conform.report import OUTCOMES, ReportWriter, header_record
+from agspec.conform.protocol import PROTOCOL
+from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
 
@@ -124,7 +125,7 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
             described = impl.describe()
         except Exception as exc:  # reported per case as an error; the header says why
             described = {"spec": impl_spec, "error": str(exc)}
-        summary.header = header_record(described, dict(options_record or {}), len(items))
+        summary.header = header_record(described, dict(options_record or {}), len(items), protocol=PROTOCOL)
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}
         with ReportWriter(report_path) as report:
             report.write(summary.header)

@@ -35,7 +35,7 @@ from typing import Any, Iterable, Iterator, Mapping, Protocol, Sequence
 import networkx as nx
 
 from agspec.diagnostics import Issue, json_pointer
-from agspec.ir import topology
+from agspec.ir import topology, variants
 
 Json = Any
 MAX_ROUTES = 1024  # AG390: XOR routes analysed per recipe
@@ -711,6 +711,7 @@ def validate_profile(ir: Json) -> list[Issue]:
     issues += _check_handoff_reach(profile, "", None)
     for name, overrides in _dict(profile.get("variants")).items():
         issues += _check_variant(profile, str(name), overrides)
+    issues += variants.check("profile", profile)  # S-RULE-VARIANTS
     return issues
 
 
@@ -813,6 +814,7 @@ def _validate_scenario(ir: Json, resolver: Resolver, *, check_variant: bool) -> 
     issues += _check_scenario_numbers(scenario)
     issues += _check_scenario_resources(scenario)
     issues += _check_k_topo(scenario, resolver)
+    issues += variants.check("scenario", scenario)  # S-RULE-VARIANTS
     return issues
 
 

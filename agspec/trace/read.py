@@ -7,7 +7,7 @@ the record — never a traceback.  Checks, in order:
 * the file can be read (AG001/AG002) and every non-blank line is a JSON object (AG003);
 * every record satisfies ``schemas/trace.schema.json`` (AG2xx, with the pointer of the offending
   field; at most ``max_schema_errors`` are reported);
-* the structure of the trace (AG6xx, F-TRACE-CODES): a header first (AG601), tick records with
+* the structure of the trace (AG6xx, F-CODES): a header first (AG601), tick records with
   consecutive epochs whose state is at ``t + 1`` (AG602), nothing after the footer and a single
   header (AG603), a footer (AG604: the trace is truncated), a footer that agrees with the records
   and declares the execution complete (AG605), at least one record (AG606), a header fingerprint
@@ -16,11 +16,13 @@ the record — never a traceback.  Checks, in order:
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from agspec.diagnostics import Diagnostic
+from agspec.formats.jsonl import iter_lines
+from agspec.formats.schemas import validate
+from agspec.ir.fingerprint import fingerprint
 
 TRACE_CODES = {
     "AG601": "the trace does not start with a header record",
@@ -42,47 +44,34 @@ def _diag(code: str, message: str, file: str, line: int | None, pointer: str | N
 def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int = 20
                ) -> tuple[list[dict[str, Any]], list[Diagnostic]]:
     """Read ``path``; returns the parsed records and the diagnostics (empty: a valid, complete trace)."""
-    from agspec.conform.protocol import validate
-
     path = Path(path)
     file = str(path)
     diags: list[Diagnostic] = []
     records: list[dict[str, Any]] = []
     lines: list[int] = []
+    schema_errors = 0
     try:
-        fh = open(path, "rb")
+        for line in iter_lines(path):
+            if not line.ok:
+                diags.append(_diag(line.code, line.error, file, line.lineno, col=line.col))
+                continue
+            rec = line.value
+            if not isinstance(rec, dict):
+                diags.append(_diag("AG003", "a trace record must be a JSON object", file, line.lineno, col=1))
+                continue
+            if schema and schema_errors < max_schema_errors:
+                for p in validate("trace", rec, limit=3):
+                    diags.append(_diag(p.code, p.message, file, line.lineno, pointer=p.pointer or "/"))
+                    schema_errors += 1
+            records.append(rec)
+            lines.append(line.lineno)
     except FileNotFoundError:
         return [], [_diag("AG001", f"file not found: {file}", file, None)]
     except OSError as exc:
-        return [], [_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None)]
-    schema_errors = 0
-    with fh:
-        try:
-            for lineno, raw in enumerate(fh, start=1):
-                try:
-                    text = raw.decode("utf-8")
-                except UnicodeDecodeError as exc:
-                    diags.append(_diag("AG002", f"line is not UTF-8 text (byte {raw[exc.start]:#04x})", file, lineno,
-                                       col=exc.start + 1))
-                    continue
-                if not text.strip():
-                    continue
-                try:
-                    rec = json.loads(text)
-                except json.JSONDecodeError as exc:
-                    diags.append(_diag("AG003", f"not valid JSON: {exc.msg}", file, lineno, col=exc.colno))
-                    continue
-                if not isinstance(rec, dict):
-                    diags.append(_diag("AG003", "a trace record must be a JSON object", file, lineno, col=1))
-                    continue
-                if schema and schema_errors < max_schema_errors:
-                    for p in validate("trace", rec, limit=3):
-                        diags.append(_diag(p.code, p.message, file, lineno, pointer=p.pointer or "/"))
-                        schema_errors += 1
-                records.append(rec)
-                lines.append(lineno)
-        except OSError as exc:
-            diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
+        diag = _diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None)
+        if not lines and not diags:  # the file could not be opened at all
+            return [], [diag]
+        diags.append(diag)
     diags += _structure(records, lines, file)
     diags.sort(key=lambda d: (d.line or 0))
     return records, diags
@@ -100,8 +89,6 @@ def _structure(records: list[dict[str, Any]], lines: list[int], file: str) -> li
     header = records[0] if records[0].get("type") == "header" else None
     if header is not None and isinstance(header.get("instance"), dict) and isinstance(header.get("fingerprint"), str):
         try:
-            from agspec.ir.fingerprint import fingerprint
-
             fp = fingerprint(header["instance"])
             if fp != header["fingerprint"]:
                 out.append(_diag("AG607", f"fingerprint {header['fingerprint'][:19]}… is not the instance's ({fp[:19]}…)",
