@@ -113,7 +113,9 @@ def serve(observations: bool, masks: bool) -> None:
 # =============================================================================================== check
 
 
-@click.command("check")
+@click.command("check", epilog="""\b
+Example: check every trace of a training run on 2 local workers, with a JSON Lines report:
+  agspec check runs/ -j 2 --report check.jsonl""")
 @click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
@@ -126,8 +128,6 @@ def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str
 
     One file: its invariant table. A directory (every *.jsonl below it) or several files: a
     campaign (spec chapter 14), one row per trace, in file order whatever the executor.
-
-    Example: agspec check runs/ -j 2 --report check.jsonl
     """
     from pathlib import Path
 
