@@ -1,9 +1,9 @@
 """Episodes and evaluations: drive the reference interpreter with a controller (spec chapter 11).
 
 ``run_episode`` runs one instance to its horizon with a reference controller or a user policy
-(optionally writing a trace); ``map_episodes`` is the one episode map of every campaign (serial or a
-process pool); ``summarize`` reports as the paper does: mean and 95 % half-width 1.96·s/√n over
-instances.
+(optionally writing a trace); ``map_episodes`` is the one episode map of every campaign (through the
+campaign executor, spec chapter 14); ``summarize`` reports as the paper does: mean and 95 %
+half-width 1.96·s/√n over instances.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ import json
 import math
 import statistics
 import time
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
+from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
@@ -177,27 +177,50 @@ def run_job(job: Job) -> dict[str, Any]:
     return record
 
 
-def map_episodes(jobs: list[Job], workers: int = 1) -> Iterator[dict[str, Any]]:
-    """THE episode map: every campaign's episodes go through here, results in job order.
+def _run_slot(instances: list[Mapping[str, Any]], item: tuple[Job, int]) -> dict[str, Any]:
+    job, slot = item
+    return run_job(replace(job, instance=instances[slot]))
 
-    ``workers`` > 1 runs them in a process pool; the pool is shut down on every exit path.
+
+def map_episodes(jobs: list[Job], workers: int = 1, executor: ExecutorSpec | None = None) -> Iterator[dict[str, Any]]:
+    """THE episode map: every campaign's episodes go through here, results in job order (CAMP-ORDER).
+
+    ``executor`` says where they run (spec chapter 14; default ``workers`` local processes).  Each
+    distinct instance is shipped once however many policies run it (CAMP-SHIP-ONCE).  An episode
+    whose worker died past the retries is an ``error`` record with code ``worker`` (CAMP-FAULTS).
+    Leaving the iterator early stops the workers (CAMP-CANCEL).
     """
-    if workers <= 1:
-        yield from map(run_job, jobs)
-        return
-    pool = ProcessPoolExecutor(max_workers=workers)
-    try:
-        yield from pool.map(run_job, jobs, chunksize=1)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    instances: list[Mapping[str, Any]] = []
+    slots: dict[tuple[str, int], int] = {}
+    items = []
+    for job in jobs:
+        slot = slots.get((job.scenario, job.index))
+        if slot is None or instances[slot] != job.instance:
+            slot = slots[(job.scenario, job.index)] = len(instances)
+            instances.append(job.instance)
+        items.append((replace(job, instance=None), slot))
+    for i, outcome in run_ordered(Task(_run_slot, instances), items, executor or ExecutorSpec(jobs=workers)):
+        if isinstance(outcome, Done):
+            yield outcome.value
+            continue
+        job = jobs[i]
+        record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index,
+                                  "status": "error", "metrics": None, "illegal_actions": None,
+                                  "actions_sha256": None,
+                                  "error": PolicyError("worker", f"the episode was not run: {outcome.message()}").record(),
+                                  "wall_time": 0.0}
+        if job.repeat:
+            record["repeat"] = True
+        yield record
 
 
 def evaluate(jobs: Iterable[tuple[str, str | PolicySpec, int, Mapping[str, Any]] | Job], workers: int = 1,
-             on_done: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+             on_done: Callable[[dict[str, Any]], None] | None = None,
+             executor: ExecutorSpec | None = None) -> list[dict[str, Any]]:
     """Run (scenario, controller, index, instance) jobs (or :class:`Job` s); results come back in job order."""
     todo = [j if isinstance(j, Job) else Job(j[0], j[2], as_policy(j[1]), j[3]) for j in jobs]
     runs: list[dict[str, Any]] = []
-    for run in map_episodes(todo, workers):
+    for run in map_episodes(todo, workers, executor):
         runs.append(run)
         if on_done:
             on_done(run)

@@ -14,6 +14,7 @@ import statistics
 from pathlib import Path
 from typing import Any, Callable
 
+from agspec.campaign.executor import ExecutorSpec
 from agspec.evaluate import evaluate, mean_ci
 
 FINAL_TEST = range(1000, 1050)
@@ -62,6 +63,14 @@ PAPER_PAIRED = {
 RANDOM_NOTE = ("The original release's random-masked controller is not public; agspec's C-RANDOM draws "
                "uniformly among legal actions from one stream seeded by the execution seed (spec/11), so its "
                "numbers are compared with the paper's interval, not expected to be exact.")
+
+
+class EpisodeFailures(Exception):
+    """Episodes of the reproduction produced no metrics (CAMP-FAULTS); ``errors`` names each cause."""
+
+    def __init__(self, errors: list[str]):
+        super().__init__(f"{len(errors)} episode(s) failed; first: {errors[0]}")
+        self.errors = errors
 
 
 def t_quantile(p: float, df: int) -> float:
@@ -122,7 +131,8 @@ def build_report(runs: list[dict[str, Any]]) -> dict[str, Any]:
     """Compare runs (as returned by agspec.evaluate.evaluate) with the paper's numbers."""
     by: dict[tuple[str, str], dict[int, dict]] = {}
     for r in runs:
-        by.setdefault((r["scenario"], r["controller"]), {})[r["index"]] = r["metrics"]
+        if r["metrics"] is not None:  # failed episodes (CAMP-FAULTS) are reported by the caller
+            by.setdefault((r["scenario"], r["controller"]), {})[r["index"]] = r["metrics"]
 
     def values(scenario: str, controller: str, key: str) -> list[float]:
         return [float(m[key]) for _, m in sorted(by.get((scenario, controller), {}).items()) if m.get(key) is not None]
@@ -267,9 +277,15 @@ def render_markdown(report: dict[str, Any]) -> str:
 
 
 def run_paper(workers: int = 1, out_dir: Path | None = None, plan: list | None = None,
-              on_done: Callable[[dict], None] | None = None) -> dict[str, Any]:
+              on_done: Callable[[dict], None] | None = None, executor: ExecutorSpec | None = None) -> dict[str, Any]:
+    """Run the plan and write the report; an episode that failed (CAMP-FAULTS) raises
+    :class:`EpisodeFailures` and nothing is written (the report would compare partial numbers)."""
     jobs = list(_jobs(plan if plan is not None else default_plan()))
-    runs = evaluate(jobs, workers=workers, on_done=on_done)
+    runs = evaluate(jobs, workers=workers, on_done=on_done, executor=executor)
+    errors = [f"{r['scenario']}/{r['controller']}/{r['index']}: {r['error']['message']}"
+              for r in runs if r["metrics"] is None]
+    if errors:
+        raise EpisodeFailures(errors)
     report = build_report(runs)
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -278,5 +294,5 @@ def run_paper(workers: int = 1, out_dir: Path | None = None, plan: list | None =
     return report
 
 
-__all__ = ["run_paper", "build_report", "render_markdown", "mark", "default_plan", "paper_text", "ours_text",
+__all__ = ["run_paper", "EpisodeFailures", "build_report", "render_markdown", "mark", "default_plan", "paper_text", "ours_text",
            "explanation", "paired_ci", "t_quantile"]

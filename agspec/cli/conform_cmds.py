@@ -11,7 +11,9 @@ from typing import Any
 
 import click
 
+from agspec.campaign.executor import ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import JOBS_HELP, executor_options
 
 
 # =============================================================================================== conform
@@ -24,7 +26,8 @@ from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, 
 @click.option("-k", "keyword", default=None, metavar="EXPR", help="Select cases/episodes by id, title, tag, rule or glob (and/or/not).")
 @click.option("-x", "exitfirst", is_flag=True, help="Stop at the first failure or error.")
 @click.option("--max-fail", type=int, default=None, metavar="N", help="Stop after N failures or errors.")
-@click.option("-j", "--jobs", type=int, default=1, show_default=True, help="Worker processes (each with its own implementation).")
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None,
+              help="Workers, each with its own implementation (default: 1 locally; with --executor ray every CPU).")
 @click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
               help="Write the JSON Lines report (F-REPORT) here, line by line.")
 @click.option("--expect", "expect_path", type=click.Path(dir_okay=False), default=None,
@@ -45,10 +48,11 @@ from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, 
 @click.option("--require", "require", default=None, metavar="LEVEL",
               help="Fail (exit 1) unless the run proves LEVEL: `full` or parts from events,state,observations,masks.")
 @click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
+@executor_options
 def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
             jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-            repro_dir: str, float_tolerance: float | None, require: str | None) -> None:
+            repro_dir: str, float_tolerance: float | None, require: str | None, campaign: ExecutorSpec) -> None:
     """Check an implementation against the AssemblyGrid v1 reference (F-CONFORM).
 
     Runs the conformance suite and lockstep episodes on the official catalogue; every state is
@@ -58,7 +62,7 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
 
     if coverage:
         raise SystemExit(view.show_coverage(suite_dir, fmt))
-    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("-j", jobs, 1), ("--episodes", episodes, 0),
+    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("--episodes", episodes, 0),
                              ("--ticks", ticks, 0)):
         if value < low or (name == "--impl-timeout" and value <= 0):
             fail(f"{name} must be {'> 0' if name == '--impl-timeout' else f'>= {low}'}, got {value}")
@@ -84,10 +88,11 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
         fail("no case or episode selected" + (f" by -k {keyword!r}" if keyword else ""))
     expectations, stale = view.load_expect(expect_path, universe, suite_loaded)
     options_record = {"impl_timeout": impl_timeout, "k": keyword, "max_fail": max_fail, "jobs": jobs,
+                      "executor": campaign.kind,
                       "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
                       "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
                       "float_tolerance": float_tolerance, "require": require, "repro_dir": repro_dir}
-    summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, jobs=jobs,
+    summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
                            require=required)
@@ -118,14 +123,31 @@ def serve(observations: bool, masks: bool) -> None:
 # =============================================================================================== check
 
 
-@click.command("check")
-@click.argument("trace_path", metavar="TRACE", type=click.Path(dir_okay=False))
+@click.command("check", epilog="""\b
+Example: check every trace of a training run on 2 local workers, with a JSON Lines report:
+  agspec check runs/ -j 2 --report check.jsonl""")
+@click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
-def check(trace_path: str, fmt: str) -> None:
-    """Check a trace (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard."""
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
+@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
+              help="With several traces: write one JSON line per trace here, as each is checked.")
+@executor_options
+def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str | None,
+          campaign: ExecutorSpec) -> None:
+    """Check traces (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard.
+
+    One file: its invariant table. A directory (every *.jsonl below it) or several files: a
+    campaign (spec chapter 14), one row per trace, in file order whatever the executor.
+    """
+    from pathlib import Path
+
     from agspec.cli import conform_view as view
 
-    raise SystemExit(view.check_trace_command(trace_path, fmt))
+    if len(targets) == 1 and not Path(targets[0]).is_dir() and report_path is None:
+        raise SystemExit(view.check_trace_command(targets[0], fmt))
+    from agspec.cli.check_view import check_many_command
+
+    raise SystemExit(check_many_command(targets, fmt, campaign, report_path))
 
 
 # =============================================================================================== trace

@@ -13,6 +13,7 @@ from typing import Any, Mapping, Sequence
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from agspec.campaign.executor import ExecutorError, ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
@@ -81,7 +82,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 # --------------------------------------------------------------------------- running
 
 
-def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, jobs: int,
+def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, campaign: ExecutorSpec,
             expectations: Mapping[str, Any], stale: Sequence[str], max_fail: int | None, report_path: str | None,
             repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str,
             require: Sequence[str] = ()):
@@ -115,12 +116,15 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
         # SIGTERM / SIGHUP / Ctrl-C / an exception: the finally blocks close every simulator (F-PROTOCOL-TEARDOWN)
         with exit_on_signals():
             try:
-                return run(items, impl_spec, timeout=impl_timeout, validate=validate, jobs=jobs, opts=opts,
+                inline = campaign.kind == "local" and (campaign.jobs or 1) <= 1
+                return run(items, impl_spec, timeout=impl_timeout, validate=validate, opts=opts, executor=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
-                           options_record=options_record, impl=impl if jobs <= 1 else None, on_result=on_result,
+                           options_record=options_record, impl=impl if inline else None, on_result=on_result,
                            require=require)
+            except ExecutorError as exc:
+                fail(str(exc))
             finally:
-                impl.close()
+                impl.close()  # also on Ctrl-C: never leave a simulator process behind
 
 
 # --------------------------------------------------------------------------- output
@@ -242,10 +246,10 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
 
 
 def check_trace_command(path: str, fmt: str) -> int:
+    from agspec.campaign.check import diag_record, report_record
     from agspec.conform.invariants import INVARIANT_IDS, check_trace
-    from agspec.trace.read import _diag as _trace_diag
+    from agspec.campaign.check import trace_diag, verify_whole
     from agspec.trace.read import read_trace
-    from agspec.trace.verify import verify as verify_whole
 
     records, diags = read_trace(path)
     if any(d.code in ("AG001", "AG002") and d.line is None for d in diags):
@@ -255,7 +259,7 @@ def check_trace_command(path: str, fmt: str) -> int:
     fatal = [d for d in diags if not d.code.startswith("AG6")]  # unreadable records: invariants cannot run
     if fatal:
         if fmt == "json":
-            emit_json({"file": path, "ok": False, "diagnostics": [_d(d) for d in diags]})
+            emit_json({"file": path, "ok": False, "diagnostics": [diag_record(d) for d in diags]})
         else:
             for d in fatal[:30]:
                 stderr.print(d.render(), markup=False)
@@ -264,18 +268,10 @@ def check_trace_command(path: str, fmt: str) -> int:
         return EXIT_INVALID
     report = check_trace(records)
     # F-TRACE-CHECK: the whole trace — record count against the horizon, footer metrics recomputed
-    whole = verify_whole(records, path, _trace_diag)
+    whole = verify_whole(records, path, trace_diag)
     ok = report.ok and not whole
     if fmt == "json":
-        emit_json({
-            "file": path, "ok": ok, "ticks": report.ticks, "agents": report.agents, "states": report.states,
-            "checks": report.checks, "records": report.records, "skipped": report.skipped,
-            "total_checks": report.total_checks,
-            "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}
-                           for v in report.violations],
-            "whole_trace": [_d(d) for d in whole],
-            "diagnostics": [_d(d) for d in diags],
-        })
+        emit_json(report_record(path, report, diags, whole))
         return EXIT_OK if ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
                         f"{report.total_checks} checks evaluated")
@@ -303,6 +299,3 @@ def check_trace_command(path: str, fmt: str) -> int:
                  else "[green]record count and footer metrics agree with the records[/]")
     return EXIT_OK if ok else EXIT_INVALID
 
-
-def _d(d) -> dict[str, Any]:
-    return {"code": d.code, "message": d.message, "line": d.line, "pointer": d.pointer}

@@ -15,6 +15,7 @@ from typing import Any, Iterable, Sequence
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from agspec.campaign.executor import ExecutorSpec
 from agspec.cli.common import emit_json, fail, stderr, stdout
 from agspec.controllers import CONTROLLERS
 
@@ -158,7 +159,7 @@ class Campaign:
                         todo.append(Job(name, k, spec, inst, self.strict, self.timeout, repeat=True))
         return todo, instances
 
-    def run(self, workers: int, out: Path | None, show: bool) -> None:
+    def run(self, executor: ExecutorSpec, out: Path | None, show: bool) -> None:
         from agspec.evaluate import map_episodes
         from agspec.policy.bundle import BundleError, BundleWriter, header
 
@@ -170,7 +171,7 @@ class Campaign:
                 policies.setdefault(p["label"], p)
             known = {(i["scenario"], i["index"]): i for i in (self.reused or {}).get("instances", [])}
             known.update({(i["scenario"], i["index"]): i for i in instances})
-            head = header(policies.values(), known.values(), split=self.split, workers=workers,
+            head = header(policies.values(), known.values(), split=self.split, workers=executor.jobs or 1,
                           options={"strict": self.strict, "timeout": self.timeout, "repeat": self.repeats})
             try:
                 writer = BundleWriter(out, head)
@@ -184,7 +185,7 @@ class Campaign:
             with Progress(TextColumn("[bold]evaluate"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                           TimeRemainingColumn(), console=stderr, disable=not show) as progress:
                 task = progress.add_task("episodes", total=len(todo))
-                for ep in map_episodes(todo, workers):
+                for ep in map_episodes(todo, executor=executor):
                     self.episodes.append(ep)
                     if writer is not None:
                         writer.add(ep)

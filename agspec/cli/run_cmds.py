@@ -10,7 +10,9 @@ import click
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.campaign.executor import ExecutorError, ExecutorSpec
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
 
 # Metrics shown by `agspec run` in its table: (key, label, format)
@@ -171,7 +173,7 @@ Re-render two bundles without running anything:
 @click.option("--split", type=click.Choice(["final-test", "validation", "catalogue", "geometry-matched"]), default=None,
               help="Instance split (default final-test).")
 @click.option("--indices", default=None, help="Suite indices inside the split, e.g. 1000-1049 or 1000,1003,1005-1007.")
-@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=1, show_default=True, help="Worker processes.")
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
 @click.option("--metric", "metric_keys", multiple=True, type=click.Choice(METRICS), default=None,
               help="Metrics to show (default delivered; with --policy also admitted completion).")
 @click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
@@ -187,15 +189,16 @@ Re-render two bundles without running anything:
 @click.option("--paper", is_flag=True, help="Run what the paper's tables report and compare (writes the report).")
 @click.option("--out-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"), show_default=True,
               help="With --paper: where reproduction.md and reproduction.json are written.")
+@executor_options
 def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
              versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
              indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
              timeout: float, repeats: int, no_published: bool, out_path: Path | None, fmt: str, paper: bool,
-             out_dir: Path) -> None:
+             out_dir: Path, campaign: ExecutorSpec) -> None:
     """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
     (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
     if paper:
-        _evaluate_paper(jobs, out_dir, fmt)
+        _evaluate_paper(campaign, out_dir, fmt)
         return
     from agspec.cli.evaluate_view import Campaign
 
@@ -205,32 +208,38 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
         fail("--from needs at least one results bundle")
     if len(names) > len(policies) or len(versions) > len(policies):
         fail("give at most one --name and one --policy-version per --policy")
-    campaign = Campaign.plan(bundles=bundles, policies=policies, names=names, versions=versions,
+    plan = Campaign.plan(bundles=bundles, policies=policies, names=names, versions=versions,
                              controllers=controllers, scenarios=scenarios, split=split, indices=indices,
                              strict=strict, timeout=timeout, repeats=repeats)
-    campaign.run(jobs, out_path, show=fmt == "table" and sys.stderr.isatty())
-    metrics = metric_keys or (("delivered", "completion_rate") if campaign.user_labels else ("delivered",))
+    try:
+        plan.run(campaign, out_path, show=fmt == "table" and sys.stderr.isatty())
+    except ExecutorError as exc:
+        fail(str(exc))
+    metrics = metric_keys or (("delivered", "completion_rate") if plan.user_labels else ("delivered",))
     if diagnostics:
         from agspec.cli.evaluate_view import DIAGNOSTICS
 
         metrics = tuple(dict.fromkeys((*metrics, *DIAGNOSTICS)))
-    campaign.render(metrics, fmt, with_published=not no_published)
-    if campaign.failed:
+    plan.render(metrics, fmt, with_published=not no_published)
+    if plan.failed:
         raise SystemExit(EXIT_INVALID)
 
 
-def _evaluate_paper(jobs: int, out_dir: Path, fmt: str) -> None:
+def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
     """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
-    from agspec.reproduce import default_plan, ours_text, paper_text, run_paper
+    from agspec.reproduce import EpisodeFailures, default_plan, ours_text, paper_text, run_paper
 
-    if jobs < 1:
-        fail("-j must be at least 1")
     total = sum(len(indices) for _, _, indices in default_plan())
     show = fmt == "table" and sys.stderr.isatty()
     with Progress(TextColumn("[bold]paper reproduction"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   console=stderr, disable=not show) as progress:
         task = progress.add_task("episodes", total=total)
-        report = run_paper(workers=jobs, out_dir=out_dir, on_done=lambda run: progress.advance(task))
+        try:
+            report = run_paper(out_dir=out_dir, executor=campaign, on_done=lambda run: progress.advance(task))
+        except ExecutorError as exc:
+            fail(str(exc))
+        except EpisodeFailures as exc:
+            fail(f"{exc}; nothing was written", EXIT_HARNESS)
     if fmt == "json":
         emit_json(report)
         return

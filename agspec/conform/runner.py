@@ -1,9 +1,10 @@
 """``agspec conform``: run items against an implementation and decide conformance (F-CONFORM).
 
 ``run`` drives a list of :class:`~agspec.conform.items.Item` (suite cases, catalogue episodes or a
-replay) through :func:`~agspec.conform.lockstep.run_item`, sequentially or across ``jobs`` worker
-processes (each with its own implementation instance), applies the expected-failures file, writes
-the JSONL report incrementally (F-REPORT) and returns a :class:`Summary` whose ``exit_code`` follows
+replay) through :func:`~agspec.conform.lockstep.run_item` on a campaign executor (spec chapter
+14: in this process, local worker processes or Ray actors, each worker with its own
+implementation), applies the expected-failures file, writes the JSONL report incrementally and
+in item order (F-REPORT, CAMP-ORDER) and returns a :class:`Summary` whose ``exit_code`` follows
 F-EXIT-CODES: 0 conformant at the level proven; 1 nonconformant (a fail, an xpass, a stale
 expectation, or less proven than ``--require``); 3 harness or protocol error (an error outcome and
 no failure, or a vacuous run); 5 nondeterministic (the first failure did not reproduce on replay).
@@ -15,11 +16,10 @@ The level (F-CONFORM-LEVELS) is what the run compared: the behavioural parts of 
 from __future__ import annotations
 
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
-from multiprocessing.util import Finalize
 from typing import Any, Callable, Mapping, Sequence
 
+from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
@@ -161,20 +161,22 @@ class Summary:
         }
 
 
-# --------------------------------------------------------------------------- worker processes (-j)
-
-_WORKER: dict[str, Any] = {}  # per worker process: its own implementation (never shared)
+# --------------------------------------------------------------------------- workers (CAMP-EXECUTOR)
 
 
-def _init_worker(spec: str, timeout: float, validate: bool) -> None:
+def _open_impl(shared: tuple[str, float, bool, Options]) -> tuple[Implementation, Options]:
+    """Per worker: its own implementation (never shared), made once and used for all its items."""
+    spec, timeout, validate, opts = shared
+    return make_impl(spec, timeout=timeout, validate=validate), opts
 
-    impl = make_impl(spec, timeout=timeout, validate=validate)
-    _WORKER["impl"] = impl
-    Finalize(impl, impl.close, exitpriority=10)  # stop the worker's simulator when the worker exits
+
+def _close_impl(context: tuple[Implementation, Options]) -> None:
+    context[0].close()  # stops the worker's simulator (CAMP-CANCEL)
 
 
-def _run_in_worker(item: Item, opts: Options) -> Result:
-    return run_item(item, _WORKER["impl"], opts)
+def _run_item(context: tuple[Implementation, Options], item: Item) -> Result:
+    impl, opts = context
+    return run_item(item, impl, opts)
 
 
 # --------------------------------------------------------------------------- the run
@@ -185,13 +187,16 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
         stale: Sequence[str] = (), max_fail: int | None = None, report_path: str | None = None,
         options_record: Mapping[str, Any] | None = None, impl: Implementation | None = None,
         on_result: Callable[[Result, str], None] | None = None, require: Sequence[str] = (),
-        replays: int = 1) -> Summary:
-    """Run ``items``; results are reported through ``on_result`` as they complete.
+        replays: int = 1, executor: ExecutorSpec | None = None) -> Summary:
+    """Run ``items``; results are reported through ``on_result`` in item order.
 
     ``impl`` may be given (an already constructed implementation, used when ``jobs`` is 1); otherwise
-    it is made from ``impl_spec``.  ``max_fail``: stop after that many failing outcomes (``-x`` = 1).
-    ``require``: the parts the run must prove (``--require``); ``replays``: how often the first failing
-    item is run again to tell a reproducible failure from a nondeterministic one (0: never).
+    it is made from ``impl_spec``.  ``executor`` says where the items run (spec chapter 14; default
+    ``jobs`` local processes, each worker with its own implementation); results are reported in
+    item order whatever order the workers finish in (CAMP-ORDER).  ``max_fail``: stop after that
+    many failing outcomes (``-x`` = 1).  ``require``: the parts the run must prove (``--require``);
+    ``replays``: how often the first failing item is run again to tell a reproducible failure from a
+    nondeterministic one (0: never).
     """
     opts = opts or Options(impl_spec=impl_spec)
     expectations = dict(expectations or {})
@@ -228,41 +233,32 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
                     failures += 1
                 return max_fail is not None and failures >= max_fail
 
-            if jobs <= 1 or len(items) <= 1:
-                for index, item in enumerate(items):
-                    if done(index, run_item(item, impl, opts)):
-                        break
+            executor = executor or ExecutorSpec(jobs=jobs)
+            inline = executor.kind == "local" and (executor.jobs or 1) <= 1
+            if inline:
+                task = Task(_run_item, (impl, opts))  # in this process, on the implementation made above
             else:
                 if own:
                     impl.close()
-                with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
-                                         initargs=(impl_spec, timeout, validate)) as pool:
-                    pending = {pool.submit(_run_in_worker, item, opts): i for i, item in enumerate(items)}
-                    stop = False
-                    try:
-                        while pending and not stop:
-                            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                            for fut in finished:
-                                index = pending.pop(fut)
-                                try:
-                                    result = fut.result()
-                                except Exception as exc:  # a worker died: the item is a harness error
-                                    result = Result(items[index], "error", f"worker process failed: {exc}",
-                                                    {"type": "harness", "code": type(exc).__name__,
-                                                     "message": f"worker process failed: {exc}", "tick": None})
-                                if done(index, result) and not stop:
-                                    stop = True
-                    finally:
-                        # also on SIGTERM/SIGHUP/Ctrl-C/an exception: queued items never start; running
-                        # workers finish their item and close their simulator (F-PROTOCOL-TEARDOWN)
-                        for fut in pending:
-                            fut.cancel()
+                task = Task(_run_item, (impl_spec, timeout, validate, opts), _open_impl, _close_impl)
+            outcomes = run_ordered(task, items, executor)
+            try:
+                for index, outcome in outcomes:  # in item order (CAMP-ORDER), so the report is too
+                    if isinstance(outcome, Done):
+                        result = outcome.value
+                    else:  # CAMP-FAULTS: the item is a harness error naming the cause
+                        message = f"worker failed: {outcome.message()}"
+                        result = Result(items[index], "error", message,
+                                        {"type": "harness", "code": "worker", "message": message, "tick": None})
+                    if done(index, result):
+                        break
+            finally:
+                outcomes.close()  # -x / --max-fail / Ctrl-C: cancel the rest, stop the workers
             summary.results = [by_index[i][:2] for i in sorted(by_index)]
             summary.records = [by_index[i][2] for i in sorted(by_index)]
             first = next((r for r, o in summary.results if r.outcome == "fail" and r.item.kind != "replay"), None)
             if first is not None and replays > 0:
-                summary.nondeterministic = _replay_first_failure(first, impl if jobs <= 1 or len(items) <= 1
-                                                                 else None, impl_spec, timeout, validate, opts,
+                summary.nondeterministic = _replay_first_failure(first, impl if inline else None, impl_spec, timeout, validate, opts,
                                                                  replays)
             summary.not_run = len(items) - len(summary.results)
             for ident in summary.stale:

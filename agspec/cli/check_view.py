@@ -1,0 +1,77 @@
+"""``agspec check`` over a directory or many traces: a campaign (spec chapter 14), one trace per item.
+
+The records come back in the order of the expanded file list whatever the executor (CAMP-ORDER); the
+JSON Lines report is written and flushed one trace at a time, so an interrupted run keeps every
+line already written (CAMP-CANCEL).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Any, Sequence
+
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from agspec.campaign.check import EXIT_HARNESS, check_file, exit_code, expand
+from agspec.campaign.executor import Done, ExecutorError, ExecutorSpec, Task, run_ordered
+from agspec.cli.common import emit_json, fail, stderr, stdout
+
+VERDICT = {0: "[green]ok[/]", 1: "[bold red]fails[/]", 2: "[bold red]unreadable[/]", 3: "[bold magenta]error[/]"}
+COUNTED = {0: "ok", 1: "failed", 2: "unreadable", 3: "error"}
+
+
+def check_many_command(targets: Sequence[str], fmt: str, campaign: ExecutorSpec, report_path: str | None) -> int:
+    paths = expand(targets)
+    if not paths:
+        fail(f"no trace files (*.jsonl) in {', '.join(targets)}")
+    try:
+        report = open(report_path, "w", encoding="utf-8") if report_path else None
+    except OSError as exc:
+        fail(f"cannot write the report {report_path}: {exc.strerror or exc}")
+    records: list[dict[str, Any]] = []
+    show = fmt == "table" and sys.stderr.isatty()
+    try:
+        with Progress(TextColumn("[bold]check"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                      console=stderr, disable=not show, transient=True) as progress:
+            task = progress.add_task("traces", total=len(paths))
+            for i, outcome in run_ordered(Task(check_file), paths, campaign,
+                                          on_progress=lambda i, o: progress.advance(task)):
+                record = outcome.value if isinstance(outcome, Done) else {
+                    "file": paths[i], "ok": False, "exit": EXIT_HARNESS, "error": outcome.message()}
+                records.append(record)
+                if report is not None:
+                    report.write(json.dumps({"type": "trace", **record}, ensure_ascii=False) + "\n")
+                    report.flush()
+    except ExecutorError as exc:
+        fail(str(exc))
+    finally:
+        if report is not None:
+            report.close()
+    code = exit_code(records)
+    counts = {name: sum(1 for r in records if r["exit"] == c) for c, name in COUNTED.items()}
+    if report_path:
+        with open(report_path, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps({"type": "footer", "traces": len(records), "counts": counts, "exit_code": code}) + "\n")
+    if fmt == "json":
+        emit_json({"traces": records, "counts": counts, "exit_code": code})
+        return code
+    table = Table(title=f"agspec check · {len(records)} traces")
+    for col in ("Trace", "Ticks", "Checks evaluated", "Violations", "Verdict"):
+        table.add_column(col, justify="right" if col in ("Ticks", "Checks evaluated", "Violations") else "left",
+                         overflow="fold")
+    for r in records:
+        table.add_row(r["file"], str(r.get("ticks", "—")), str(r.get("total_checks", "—")),
+                      str(len(r.get("violations", ()))), VERDICT[r["exit"]])
+    stdout.print(table)
+    for r in records:
+        if r["exit"] == EXIT_HARNESS:
+            stderr.print(f"[bold magenta]error[/] {r['file']}: {r['error']}")
+        elif r["exit"] and r.get("diagnostics") and not r.get("violations"):
+            stderr.print(f"{r['file']}: {r['diagnostics'][0]['message']}", markup=False)
+    stdout.print(", ".join(f"{n} {name}" for name, n in counts.items()))
+    return code
+
+
+__all__ = ["check_many_command"]
