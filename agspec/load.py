@@ -33,11 +33,13 @@ from lark.exceptions import UnexpectedInput
 from agspec.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
+from agspec.formats import limits
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
 SUFFIXES = (".ag", ".json")
+POSITIONS_MAX_CHARS = 1024**2  # JSON texts up to this size get their source map at load time
 
 # A JSON grammar with named terminals, used only for source positions (json.loads gives values).
 JSON_GRAMMAR = r"""
@@ -111,24 +113,11 @@ def _failed(path: Path | None, text: str | None, *diags: Diagnostic) -> Document
 
 
 def read_text(path: Path) -> tuple[str | None, Diagnostic | None]:
-    """UTF-8 text of a file (a leading BOM dropped), or an AG001/AG002 diagnostic."""
-    file = str(path)
-    if not path.exists():
-        return None, _diag("AG001", f"file not found: {file}", file, hint="check the path")
-    if path.is_dir():
-        return None, _diag("AG002", f"cannot read {file}: it is a directory", file)
+    """UTF-8 text of a file (a leading BOM dropped), or its AG001/AG002/AG006/AG007 diagnostic (F-LIMITS)."""
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        return None, _diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
-        return None, _diag("AG002", f"{file} is not UTF-8 text (byte 0x{data[exc.start]:02x})", file, line, col,
-                           hint="save the file as UTF-8")
-    return text.removeprefix("\ufeff"), None
+        return limits.read_text(path), None
+    except limits.InputError as exc:
+        return None, exc.diagnostic()
 
 
 def load_document(path: str | Path) -> Document:
@@ -150,6 +139,10 @@ def load_document(path: str | Path) -> Document:
 
 def load_dsl(text: str, file: str | None = None) -> Document:
     """Parse and build DSL text (F-DSL)."""
+    try:  # F-LIMITS: a 100,000-character name is refused before the parser and the renderer see it
+        limits.check_dsl_text(text, file)
+    except limits.InputError as exc:
+        return _failed(Path(file) if file else None, text, exc.diagnostic())
     source = parse(text, file)
     built = build(source)
     kind = built.ir.get("kind") if built.ir else None
@@ -167,8 +160,16 @@ def _json_parser() -> Lark:
                 maybe_placeholders=False)
 
 
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not valid JSON")
+def _srcmap(text: str) -> dict[str, Span]:
+    """Source positions of a JSON text, or {} for a large text: the positional parse costs about 70
+    times the text's size in memory, so large documents are mapped only when a diagnostic needs it
+    (``check_document``)."""
+    if len(text) > POSITIONS_MAX_CHARS:
+        return {}
+    try:
+        return json_positions(text)[0]
+    except (UnexpectedInput, RecursionError):  # json accepted what the grammar did not: positions unknown
+        return {}
 
 
 def _tok_span(tok: Token) -> Span:
@@ -238,20 +239,12 @@ def json_positions(text: str) -> tuple[dict[str, Span], list[tuple[str, Span]]]:
 def load_json(text: str, file: str | None = None) -> Document:
     """Read a JSON IR document (F-IR); positions from the lark JSON grammar."""
     path = Path(file) if file else None
-    try:
-        ir = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        return _failed(path, text, _diag("AG003", f"not valid JSON: {exc.msg}", file, exc.lineno, exc.colno))
-    except (ValueError, RecursionError) as exc:
-        return _failed(path, text, _diag("AG003", f"not valid JSON: {exc}", file, 1, 1))
-    try:
-        srcmap, duplicates = json_positions(text)
-    except (UnexpectedInput, RecursionError):  # json accepted what the grammar did not: positions unknown
-        srcmap, duplicates = {}, []
-    diags = [Diagnostic(code="AG206", message=f"duplicate key `{ptr.rsplit('/', 1)[-1]}`", file=file,
-                        line=span[0], col=span[1], end_line=span[2], end_col=span[3], pointer=ptr,
-                        hint="JSON readers disagree on duplicate keys; keep one")
-             for ptr, span in duplicates]
+    try:  # F-LIMITS: depth, number and string limits; duplicate keys and NaN are refused here
+        ir = limits.parse_json(text, file)
+    except limits.InputError as exc:
+        return _failed(path, text, exc.diagnostic())
+    srcmap = _srcmap(text)
+    diags: list[Diagnostic] = []
     if not isinstance(ir, dict):
         diags.append(_diag("AG004", "an IR document must be a JSON object", file, 1, 1))
         return Document(path=path, kind=None, ir=None, srcmap=srcmap, text=text, diagnostics=tuple(diags))
@@ -466,6 +459,25 @@ def _dsl_hint(doc: Document, issue: Issue) -> Issue:
     return replace(issue, hint=f"add `{spelling}`") if spelling else issue
 
 
+def _positions(doc: Document) -> Callable[[], dict[str, Span]]:
+    """The document's source map; a large JSON text loaded without one (``_srcmap``) is mapped on the
+    first call, i.e. only when there is a diagnostic to place."""
+    cache: list[dict[str, Span]] = []
+
+    def srcmap() -> dict[str, Span]:
+        if not cache:
+            found = doc.srcmap
+            if not found and doc.text is not None and len(doc.text) > POSITIONS_MAX_CHARS and doc.kind is not None:
+                try:
+                    found = json_positions(doc.text)[0]
+                except (UnexpectedInput, RecursionError):
+                    found = {}
+            cache.append(found)
+        return cache[0]
+
+    return srcmap
+
+
 def check_document(doc: Document, resolver: Resolver | None = None, *, semantic: bool = True) -> list[Diagnostic]:
     """All diagnostics of a loaded document: load/syntax/build, schema, references, semantics.
 
@@ -475,8 +487,9 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
     diags = list(doc.diagnostics)
     if doc.ir is None or doc.kind is None:
         return diags
+    srcmap = _positions(doc)
     issues = [_dsl_hint(doc, i) for i in validate_schema(doc.ir)]
-    diags += [locate(i, doc.file, doc.srcmap) for i in issues]
+    diags += [locate(i, doc.file, srcmap()) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
     resolver = (resolver or Resolver()).bind(doc)
@@ -492,5 +505,5 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
         else:
             # an unresolved name is reported once, as AG005 with the search hint
             unresolved = {d.pointer for d in references if d.pointer}
-            diags += [locate(i, doc.file, doc.srcmap) for i in found or [] if i.pointer not in unresolved]
+            diags += [locate(i, doc.file, srcmap()) for i in found or [] if i.pointer not in unresolved]
     return diags

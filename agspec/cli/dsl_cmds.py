@@ -27,11 +27,13 @@ from agspec.cli.common import (
     EXIT_USAGE,
     FORMAT_OPTION,
     emit_json,
+    fail,
     stderr,
     stdout,
 )
 from agspec.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
+from agspec.formats import limits
 from agspec.load import Document, Resolver, check_document, load_document, resolve_argument
 
 SEARCH_PATH_OPTION = click.option(
@@ -69,7 +71,10 @@ def _expand(args: Sequence[str], search_paths: Sequence[Path]) -> list[Path]:
     for arg in args:
         path = resolve_argument(arg, search_paths)
         if path.is_dir():
-            out += sorted(p for p in path.rglob("*.ag") if p.is_file())
+            found = sorted(p for p in path.rglob("*.ag") if p.is_file())
+            if not found:  # F-EXIT-CODES: nothing checked is not "valid"
+                fail(f"{arg}: a directory without .ag files", EXIT_USAGE)
+            out += found
         else:
             out.append(path)
     return out
@@ -78,7 +83,10 @@ def _expand(args: Sequence[str], search_paths: Sequence[Path]) -> list[Path]:
 def _exit_code(docs: Sequence[Document], diags: Sequence[Diagnostic]) -> int:
     if any(d.code == "AG000" for d in diags):
         return EXIT_INTERNAL
-    if any(doc.text is None for doc in docs):
+    # F-EXIT-CODES: a file that is missing or not a readable regular file, or of an unknown type, is a
+    # usage/I/O error; anything wrong with its content (encoding, limits, syntax, ...) is invalid input
+    if any(d.code in limits.IO_CODES for d in diags) or any(
+            doc.text is None and any(d.code == "AG004" for d in doc.diagnostics) for doc in docs):
         return EXIT_USAGE
     if any(d.severity == "error" for d in diags):
         return EXIT_INVALID

@@ -34,6 +34,9 @@ from agspec.diagnostics import Diagnostic
 # Exit categories of F-EXIT-CODES (mirrored from agspec.cli.common, which sits above this layer).
 EXIT_INVALID = 1
 EXIT_USAGE = 2
+# Codes of faults that are usage or I/O errors (exit 2): the file is missing or cannot be read as a
+# regular file. Every other code is about the content: invalid input (exit 1).
+IO_CODES = frozenset({"AG001", "AG002"})
 
 _SUFFIX = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3}
 
