@@ -71,7 +71,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
     try:
         expectations = load_expectations(path)
     except ExpectError as exc:
-        fail(str(exc))
+        fail(str(exc), exc.exit_code)
     return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=OFFICIAL_SCENARIOS)
 
 

@@ -8,7 +8,9 @@ from typing import Any
 
 import click
 
+from agspec.catalogue import InvalidDocumentError, InvalidInstanceError
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.formats import limits
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 
@@ -63,7 +65,11 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     for target in scenarios or DEFAULT_SCENARIOS:
         try:
             subjects += D.load_subjects(target, episodes, seed, small=small)
-        except Exception as exc:  # CatalogueError, InvalidDocumentError, bad JSON: usage errors
+        except limits.InputError as exc:
+            fail(f"--scenario {target}: {exc}", exc.exit_code)
+        except (InvalidDocumentError, InvalidInstanceError) as exc:  # F-EXIT-CODES: invalid input
+            fail(f"--scenario {target}: {exc}", EXIT_INVALID)
+        except Exception as exc:  # CatalogueError (unknown name, unreadable file): usage errors
             fail(f"--scenario {target}: {exc}", EXIT_USAGE)
     try:
         pair = D.open_pair(impls[0], impls[1], timeout=impl_timeout)

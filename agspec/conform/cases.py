@@ -49,6 +49,7 @@ import yaml
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import best_match
 
+from agspec.formats import limits
 from agspec.resources import conformance_dir, schemas_dir
 
 ACTION_LIMIT = 114  # O-ACTION-ENCODING: 0 .. 113
@@ -481,10 +482,10 @@ def load_case_file(path: Path | str, root: Path | str | None = None) -> list[Cas
     path = Path(path)
     root = Path(root) if root is not None else conformance_dir()
     file = _show_path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SuiteError(Located(file, None, f"cannot read case file: {exc}")) from None
+    try:  # F-LIMITS: bounded reading of a suite file
+        text = limits.read_text(path)
+    except limits.InputError as exc:
+        raise SuiteError(Located(file, exc.line, f"cannot read case file: {exc.message}")) from None
     doc, lines = _compose(text, file)
     problems = _schema_problems(doc, lines, file)
     if problems:

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
 from agspec import __version__
+from agspec.formats import limits
 
 REPRO_FORMAT = "agspec-repro/1"
 # The parts of a reset/step reply, in the order they are compared.
@@ -245,14 +246,10 @@ class ReproError(ValueError):
 def load_reproducer(path: str | Path) -> dict[str, Any]:
     """Read and check a reproducer file (F-REPRO); errors name the file and the offending field."""
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ReproError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ReproError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ReproError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
+    try:  # F-LIMITS: bounded, located reading
+        data = limits.load_json(path)
+    except limits.InputError as exc:
+        raise ReproError(str(exc)) from None
     if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
         raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
     inst = data.get("instance")

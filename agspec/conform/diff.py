@@ -37,6 +37,7 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Protocol, Sequenc
 
 from agspec.conform.compare import MISSING as _MISSING
 from agspec.conform.compare import compare_reply as _compare_reply
+from agspec.formats import limits
 
 IDLE, DELIVER, PICK0, HANDOFF0, RECEIVE0, OP0 = 0, 1, 2, 34, 42, 50
 PICK_SLOTS, OP_SLOTS = 32, 64
@@ -600,12 +601,11 @@ def small_instances(scenario: str, count: int, seed: int) -> list[Subject]:
 def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> list[Subject]:
     """Subjects for one ``--scenario`` value: an instance IR file, or a scenario (name or .ag path)
     with suite indices 0..episodes-1 plus ``small`` generated small instances."""
-    import json
     from pathlib import Path
 
     path = Path(target)
-    if path.suffix == ".json" and path.is_file():
-        data = json.loads(path.read_text(encoding="utf-8"))
+    if path.suffix == ".json" and path.exists():
+        data = limits.load_json(path)  # F-LIMITS: bounded, located reading (raises InputError)
         if not (isinstance(data, dict) and data.get("kind") == "instance"):
             raise ValueError(f"{target}: not an instance IR (kind must be \"instance\")")
         return [Subject(data.get("id") or path.stem, data, (data.get("seeds") or {}).get("execution"))]

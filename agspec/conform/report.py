@@ -15,6 +15,7 @@ from typing import IO, Any, Mapping
 
 from agspec import SPEC_VERSION, __version__
 from agspec.conform.protocol import PROTOCOL, validate
+from agspec.formats import limits
 
 REPORT_FORMAT = "agspec-conform-report/1"
 OUTCOMES = ("pass", "fail", "error", "skip", "xfail", "xpass")
@@ -71,19 +72,17 @@ def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
     records: list[dict[str, Any]] = []
     problems: list[str] = []
     path = Path(path)
-    with open(path, encoding="utf-8") as fh:
-        for lineno, text in enumerate(fh, start=1):
-            if not text.strip():
-                continue
-            try:
-                rec = json.loads(text)
-            except json.JSONDecodeError as exc:
-                problems.append(f"{path}:{lineno}: not JSON: {exc.msg}")
+    try:  # F-LIMITS: bounded, located reading
+        for lineno, rec in limits.iter_json_lines(path):
+            if isinstance(rec, limits.InputError):
+                problems.append(str(rec))
                 continue
             for p in validate("report", rec):
                 problems.append(f"{path}:{lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
             if isinstance(rec, dict):
                 records.append(rec)
+    except limits.InputError as exc:
+        return [], [str(exc)]
     if not records or records[0].get("type") != "header":
         problems.append(f"{path}:1: the report does not start with a header")
     if not records or records[-1].get("type") != "footer":

@@ -16,11 +16,11 @@ the record — never a traceback.  Checks, in order:
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from agspec.diagnostics import Diagnostic
+from agspec.formats import limits
 
 TRACE_CODES = {
     "AG601": "the trace does not start with a header record",
@@ -49,40 +49,23 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
     diags: list[Diagnostic] = []
     records: list[dict[str, Any]] = []
     lines: list[int] = []
-    try:
-        fh = open(path, "rb")
-    except FileNotFoundError:
-        return [], [_diag("AG001", f"file not found: {file}", file, None)]
-    except OSError as exc:
-        return [], [_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None)]
     schema_errors = 0
-    with fh:
-        try:
-            for lineno, raw in enumerate(fh, start=1):
-                try:
-                    text = raw.decode("utf-8")
-                except UnicodeDecodeError as exc:
-                    diags.append(_diag("AG002", f"line is not UTF-8 text (byte {raw[exc.start]:#04x})", file, lineno,
-                                       col=exc.start + 1))
-                    continue
-                if not text.strip():
-                    continue
-                try:
-                    rec = json.loads(text)
-                except json.JSONDecodeError as exc:
-                    diags.append(_diag("AG003", f"not valid JSON: {exc.msg}", file, lineno, col=exc.colno))
-                    continue
-                if not isinstance(rec, dict):
-                    diags.append(_diag("AG003", "a trace record must be a JSON object", file, lineno, col=1))
-                    continue
-                if schema and schema_errors < max_schema_errors:
-                    for p in validate("trace", rec, limit=3):
-                        diags.append(_diag(p.code, p.message, file, lineno, pointer=p.pointer or "/"))
-                        schema_errors += 1
-                records.append(rec)
-                lines.append(lineno)
-        except OSError as exc:
-            diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
+    try:  # F-LIMITS: file type and size first, then each record within the record limits
+        for lineno, rec in limits.iter_json_lines(path):
+            if isinstance(rec, limits.InputError):
+                diags.append(rec.diagnostic())
+                continue
+            if not isinstance(rec, dict):
+                diags.append(_diag("AG003", "a trace record must be a JSON object", file, lineno, col=1))
+                continue
+            if schema and schema_errors < max_schema_errors:
+                for p in validate("trace", rec, limit=3):
+                    diags.append(_diag(p.code, p.message, file, lineno, pointer=p.pointer or "/"))
+                    schema_errors += 1
+            records.append(rec)
+            lines.append(lineno)
+    except limits.InputError as exc:
+        return [], [exc.diagnostic()]
     diags += _structure(records, lines, file)
     diags.sort(key=lambda d: (d.line or 0))
     return records, diags

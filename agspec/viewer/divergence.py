@@ -19,6 +19,7 @@ import json
 from pathlib import Path
 from typing import Any, Mapping
 
+from agspec.formats import limits
 from agspec.viewer.encode import TraceData, encode, trace_data
 from agspec.viewer.record import record
 from agspec.trace.write import TraceWriter
@@ -36,23 +37,16 @@ class ReportError(ValueError):
 
 
 def read_report(path: Path) -> list[dict[str, Any]]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ReportError(f"{path}: file not found", usage=True) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ReportError(f"{path}: cannot read: {exc}", usage=True) from None
     records = []
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError as exc:
-            raise ReportError(f"{path}:{lineno}:{exc.colno}: not valid JSON: {exc.msg}") from None
-        if not isinstance(rec, dict):
-            raise ReportError(f"{path}:{lineno}: a report record must be a JSON object")
-        records.append(rec)
+    try:  # F-LIMITS: bounded, located reading; a missing or special file is a usage error
+        for lineno, rec in limits.iter_json_lines(path):
+            if isinstance(rec, limits.InputError):
+                raise ReportError(str(rec)) from None
+            if not isinstance(rec, dict):
+                raise ReportError(f"{path}:{lineno}: a report record must be a JSON object")
+            records.append(rec)
+    except limits.InputError as exc:
+        raise ReportError(str(exc), usage=exc.exit_code == limits.EXIT_USAGE) from None
     if not records or records[0].get("type") != "header" or not str(records[0].get("format", "")).startswith(
             "agspec-conform-report/"):
         raise ReportError(f"{path}:1: not a conformance report (F-REPORT): the first record must be its header "
@@ -87,9 +81,10 @@ def load_reproducer(case: Mapping[str, Any], report: Path) -> dict[str, Any]:
     for p in candidates:
         if p.is_file():
             try:
-                data = json.loads(p.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-                raise ReportError(f"{p}: cannot read the reproducer: {exc}", usage=True) from None
+                data = limits.load_json(p)
+            except limits.InputError as exc:
+                raise ReportError(f"cannot read the reproducer: {exc}", usage=exc.exit_code == limits.EXIT_USAGE
+                                  ) from None
             if not isinstance(data, dict) or not isinstance(data.get("actions"), list) or not isinstance(
                     data.get("instance"), dict):
                 raise ReportError(f"{p}: not a reproducer (F-REPRO: instance, execution_seed, actions)")
