@@ -12,7 +12,8 @@
   references (AG005) and semantic validation (``agspec.ir.validate.validate_document``, when
   that module is available).
 
-I/O codes: AG001 file not found, AG002 unreadable / not UTF-8, AG003 not valid JSON,
+I/O codes: AG001 file not found, AG002 unreadable (directory, special file), AG003 not valid JSON,
+AG006 an F-LIMITS limit exceeded, AG007 not UTF-8,
 AG004 unknown document kind or file type, AG005 unresolved include or reference,
 AG000 internal error (a bug in agspec; please file an issue).
 """

@@ -111,7 +111,7 @@ def test_json_ir_issue_is_located(tmp_path: Path):
 @pytest.mark.parametrize("content, code", [
     (b'{"kind": "recipe",}', "AG003"),
     (b'{"kind": NaN}', "AG003"),
-    (b"\xff\xfe", "AG002"),
+    (b"\xff\xfe", "AG007"),
     (b'[1, 2]', "AG004"),
     (b'{"kind": "cake"}', "AG004"),
     (b'{"kind": "recipe", "kind": "recipe"}', "AG206"),

@@ -45,7 +45,7 @@ def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, 
         try:
             data = load_reproducer(replay_path)
         except ReproError as exc:
-            fail(str(exc))
+            fail(str(exc), exc.exit_code)
         spec = impl_spec or data.get("impl")
         if not spec:
             fail("--replay needs --impl (the reproducer names no implementation)")

@@ -249,7 +249,7 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
     try:  # F-LIMITS: bounded, located reading
         data = limits.load_json(path)
     except limits.InputError as exc:
-        raise ReproError(str(exc)) from None
+        raise ReproError(str(exc), exc.exit_code) from None
     if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
         raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
     inst = data.get("instance")
