@@ -164,8 +164,10 @@ def load_instance(target: str | Path, index: int | None = None, seed: int | None
 
 
 def _check(doc: Any, resolver: Any, check_document: Callable[..., list]) -> None:
+    from agspec.load import io_fault
+
     diags = [d for d in check_document(doc, resolver) if d.severity == "error"]
-    if any(d.code in limits.IO_CODES for d in diags):
+    if io_fault(doc, diags):
         raise CatalogueError("\n".join(d.render() for d in diags))
     if diags:
         raise InvalidDocumentError("\n".join(d.render(doc.text) for d in diags))

@@ -121,14 +121,24 @@ def read_text(path: Path) -> tuple[str | None, Diagnostic | None]:
         return None, exc.diagnostic()
 
 
+def io_fault(doc: Document, diags: Sequence[Diagnostic] = ()) -> bool:
+    """Whether the document could not be *reached* — missing, not a readable regular file, or of an
+    unknown file type — a usage/I/O error (exit 2) rather than invalid content (RES-EXIT-CONTENT)."""
+    return any(d.code in limits.IO_CODES for d in (*doc.diagnostics, *diags)) or (
+        doc.text is None and any(d.code == "AG004" for d in doc.diagnostics))
+
+
 def load_document(path: str | Path) -> Document:
     """Load a ``.ag`` or ``.json`` document (F-DSL, F-IR).  Never raises on user input."""
     path = Path(path)
     file = str(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
-        if not path.exists():
-            return _failed(path, None, _diag("AG001", f"file not found: {file}", file, hint="check the path"))
+        try:  # F-LIMITS: missing, directory and special files first (AG001/AG002)
+            limits.check_file(path)
+        except limits.InputError as exc:
+            if exc.exit_code == limits.EXIT_USAGE:
+                return _failed(path, None, exc.diagnostic())
         return _failed(path, None, _diag("AG004", f"unknown file type `{path.suffix or path.name}`", file,
                                          hint="agspec reads `.ag` (DSL) and `.json` (IR) files"))
     text, problem = read_text(path)

@@ -125,7 +125,7 @@ def test_bad_json_files(tmp_path: Path, content: bytes, code: str):
 
 def test_io_errors(tmp_path: Path):
     assert load_document(tmp_path / "missing.ag").diagnostics[0].code == "AG001"
-    assert load_document(tmp_path).diagnostics[0].code == "AG004"
+    assert load_document(tmp_path).diagnostics[0].code == "AG002"  # a directory (F-LIMITS)
     (tmp_path / "notes.txt").write_text("hi")
     assert load_document(tmp_path / "notes.txt").diagnostics[0].code == "AG004"
 

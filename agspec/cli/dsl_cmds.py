@@ -33,8 +33,7 @@ from agspec.cli.common import (
 )
 from agspec.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
-from agspec.formats import limits
-from agspec.load import Document, Resolver, check_document, load_document, resolve_argument
+from agspec.load import Document, Resolver, check_document, io_fault, load_document, resolve_argument
 
 SEARCH_PATH_OPTION = click.option(
     "-I", "--search-path", "search_paths", multiple=True,
@@ -85,8 +84,7 @@ def _exit_code(docs: Sequence[Document], diags: Sequence[Diagnostic]) -> int:
         return EXIT_INTERNAL
     # F-EXIT-CODES: a file that is missing or not a readable regular file, or of an unknown type, is a
     # usage/I/O error; anything wrong with its content (encoding, limits, syntax, ...) is invalid input
-    if any(d.code in limits.IO_CODES for d in diags) or any(
-            doc.text is None and any(d.code == "AG004" for d in doc.diagnostics) for doc in docs):
+    if any(io_fault(doc, diags) for doc in docs):
         return EXIT_USAGE
     if any(d.severity == "error" for d in diags):
         return EXIT_INVALID

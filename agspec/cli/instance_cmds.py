@@ -39,7 +39,7 @@ from agspec.interop.original import ExportError, instance_definition, instance_s
 from agspec.ir.fingerprint import FingerprintError
 from agspec.ir.fingerprint import fingerprint as ir_fingerprint
 from agspec.ir.instance import InstanceError, make_instance
-from agspec.load import Resolver, check_document, load_document
+from agspec.load import Resolver, check_document, io_fault, load_document
 
 EXPORT_FORMATS = ("assemblygrid-instance-v1",)
 
@@ -119,7 +119,7 @@ def _load_ir(target: str) -> dict[str, Any]:
     if path.suffix in (".json", ".ag") or path.exists():
         doc = load_document(path)
         diags = [d for d in check_document(doc, Resolver()) if d.severity == "error"]
-        if any(d.code in limits.IO_CODES for d in diags):
+        if io_fault(doc, diags):
             raise CatalogueError("\n".join(d.render() for d in diags))
         if diags or doc.ir is None:
             raise InvalidDocumentError("\n".join(d.render(doc.text) for d in diags) or f"{target}: cannot load")

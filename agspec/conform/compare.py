@@ -240,7 +240,12 @@ def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
 
 
 class ReproError(ValueError):
-    """A reproducer file cannot be used (usage error, exit 2)."""
+    """A reproducer file cannot be used: ``exit_code`` 2 when it cannot be read, 1 when its content is
+    invalid (F-EXIT-CODES)."""
+
+    def __init__(self, message: str, exit_code: int = 1) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 def load_reproducer(path: str | Path) -> dict[str, Any]:

@@ -607,7 +607,7 @@ def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> l
     if path.suffix == ".json" and path.exists():
         data = limits.load_json(path)  # F-LIMITS: bounded, located reading (raises InputError)
         if not (isinstance(data, dict) and data.get("kind") == "instance"):
-            raise ValueError(f"{target}: not an instance IR (kind must be \"instance\")")
+            raise limits.InputError("AG004", "not an instance IR (kind must be \"instance\")", file=target)
         return [Subject(data.get("id") or path.stem, data, (data.get("seeds") or {}).get("execution"))]
     out = catalogue_subjects(target, range(max(1, episodes)))
     if small:
