@@ -56,7 +56,7 @@ class Family:
 
 FAMILIES = {
     "dsl": Family("dsl", ".ag", lambda: (ROOT / "catalogue" / "recipes" / "pair_assembly.ag").read_text("utf-8")),
-    "ir": Family("ir", ".json", lambda: json.dumps(json.loads(_instance_text())["recipes"]["pair_assembly"])),
+    "ir": Family("ir", ".json", lambda: json.dumps(next(iter(json.loads(_instance_text())["recipes"].values())))),
     "instance": Family("instance", ".json", _instance_text),
     "trace": Family("trace", ".jsonl", _trace_text, json_lines=True),
     "report": Family("report", ".jsonl", lambda: REPORT_SEED, json_lines=True),
