@@ -40,6 +40,7 @@ from agspec.ir.fingerprint import FingerprintError
 from agspec.ir.fingerprint import fingerprint as ir_fingerprint
 from agspec.ir.instance import InstanceError, make_instance
 from agspec.load import Resolver, check_document, io_fault, load_document
+from agspec.resources import catalogue_dir
 
 EXPORT_FORMATS = ("assemblygrid-instance-v1",)
 
@@ -240,9 +241,15 @@ def catalogue_list(fmt: str) -> None:
     stdout.print(table)
 
 
-def _current_lock() -> dict[str, Any]:
+def _current_lock(root: Path | None) -> dict[str, Any]:
+    """Lock data recomputed from the catalogue at ``root`` (default: the one agspec was installed with)."""
+    if root is None:
+        load = load_scenario_bundle
+    else:
+        def load(name: str) -> Any:
+            return load_scenario_bundle(root / "scenarios" / f"{name}.ag")
     try:
-        return lock_entries(load_scenario_bundle)
+        return lock_entries(load)
     except InvalidDocumentError as exc:
         _fail(str(exc), EXIT_INVALID)
     except CatalogueError as exc:
@@ -251,14 +258,33 @@ def _current_lock() -> dict[str, Any]:
         _fail(f"cannot realize the catalogue: {exc}", EXIT_INVALID)
 
 
+def _which_catalogue(root: Path | None) -> str:
+    """Which copy of the catalogue a command reads: a clone's working tree is not the installed copy."""
+    if root is not None:
+        return f"checking the catalogue in {root}"
+    here = catalogue_dir()
+    where = "the copy installed with agspec" if "_data" in here.parts else "the source tree agspec runs from"
+    return f"checking {here} ({where}; give --catalogue DIR for another copy)"
+
+
 @catalogue.command("verify")
 @click.option("--update", is_flag=True, help="Rewrite catalogue/lock.json from the current catalogue.")
 @click.option("--lock", "lock_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Lock file to check (default: the catalogue's lock.json).")
-def catalogue_verify(update: bool, lock_file: Path | None) -> None:
-    """Recompute scenario and realization fingerprints and compare them with the lock."""
-    path = lock_file or lock_path()
-    current = _current_lock()
+@click.option("--catalogue", "root", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="The catalogue directory to check, e.g. a clone's catalogue/ (default: the copy agspec "
+                   "runs from, printed first).")
+def catalogue_verify(update: bool, lock_file: Path | None, root: Path | None = None) -> None:
+    """Recompute scenario and realization fingerprints and compare them with the lock.
+
+    \b
+    Examples:
+      agspec catalogue verify
+      agspec catalogue verify --catalogue ./catalogue
+    """
+    path = lock_file or (root / "lock.json" if root is not None else lock_path())
+    stderr.print(_which_catalogue(root), markup=False)
+    current = _current_lock(root)
     if update:
         try:
             write_lock(current, path)
@@ -290,4 +316,4 @@ def catalogue_verify(update: bool, lock_file: Path | None) -> None:
 @click.pass_context
 def catalogue_lock(ctx: click.Context, lock_file: Path | None) -> None:
     """Rewrite the lock (same as `catalogue verify --update`)."""
-    ctx.invoke(catalogue_verify, update=True, lock_file=lock_file)
+    ctx.invoke(catalogue_verify, update=True, lock_file=lock_file, root=None)
