@@ -275,13 +275,7 @@ def _which_catalogue(root: Path | None) -> str:
               help="The catalogue directory to check, e.g. a clone's catalogue/ (default: the copy agspec "
                    "runs from, printed first).")
 def catalogue_verify(update: bool, lock_file: Path | None, root: Path | None = None) -> None:
-    """Recompute scenario and realization fingerprints and compare them with the lock.
-
-    \b
-    Examples:
-      agspec catalogue verify
-      agspec catalogue verify --catalogue ./catalogue
-    """
+    """Recompute scenario and realization fingerprints and compare them with the lock."""
     path = lock_file or (root / "lock.json" if root is not None else lock_path())
     stderr.print(_which_catalogue(root), markup=False)
     current = _current_lock(root)
