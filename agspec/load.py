@@ -14,7 +14,7 @@
 
 I/O codes: AG001 file not found, AG002 unreadable (directory, special file), AG003 not valid JSON,
 AG006 an F-LIMITS limit exceeded, AG007 not UTF-8,
-AG004 unknown document kind or file type, AG005 unresolved include or reference,
+AG004 unknown document kind or file type, AG005 unresolved include, AG412/AG414 unresolved recipe/profile,
 AG000 internal error (a bug in agspec; please file an issue).
 """
 
@@ -36,6 +36,7 @@ from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
 from agspec.formats import limits
 from agspec.ir.schemas import KINDS, validate_schema
+from agspec.ir.validate import rule_codes
 from agspec.resources import catalogue_dir
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
@@ -377,7 +378,7 @@ class Resolver:
         """Path of the scenario called ``name`` (e.g. "coalition-medium" -> catalogue file)."""
         return self.find("scenario", name)
 
-    # -- reference checks (AG005) ------------------------------------------
+    # -- reference checks (AG005 files, AG412 recipes, AG414 profiles) ------------------
     def check_references(self, doc: Document) -> list[Diagnostic]:
         """AG005 for ``use`` files that do not exist and names no search finds."""
         diags: list[Diagnostic] = []
@@ -408,7 +409,9 @@ class Resolver:
         for kind, name, ptr in refs:
             if not isinstance(name, str) or self.load(kind, name, doc) is not None:
                 continue
-            issue = Issue("AG005", f"cannot resolve {kind} `{name}`", ptr,
+            # F-CODES: a name in the product mix is AG412, the profile AG414; AG005 is for `use` files
+            code, what = ("AG412", "unknown recipe") if kind == "recipe" else ("AG414", "unknown geometry profile")
+            issue = Issue(code, f"{what} `{name}`: no file declares it", ptr,
                           hint=f"add `use \"path/{name}.ag\"`, put {name}.ag next to this file or in "
                                f"a `{kind}s/` directory, or pass a search path")
             diags.append(locate(issue, doc.file, doc.srcmap))
@@ -499,7 +502,7 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
     if doc.ir is None or doc.kind is None:
         return diags
     srcmap = _positions(doc)
-    issues = [_dsl_hint(doc, i) for i in validate_schema(doc.ir)]
+    issues = [_dsl_hint(doc, i) for i in rule_codes(doc.ir, validate_schema(doc.ir))]
     diags += [locate(i, doc.file, srcmap()) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
@@ -514,7 +517,7 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
             diags.append(Diagnostic(code="AG000", message=f"internal error in semantic validation: {exc!r}",
                                     file=doc.file, hint="this is a bug in agspec; please file an issue"))
         else:
-            # an unresolved name is reported once, as AG005 with the search hint
+            # an unresolved name is reported once, by the reference check with the search hint
             unresolved = {d.pointer for d in references if d.pointer}
             diags += [locate(i, doc.file, srcmap()) for i in found or [] if i.pointer not in unresolved]
     return diags

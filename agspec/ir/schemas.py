@@ -137,7 +137,8 @@ def _issues(error: ValidationError) -> list[Issue]:
         want = error.validator_value
         wants = [want] if isinstance(want, str) else list(want)
         words = " or ".join(_JSON_TYPES.get(w, w) for w in wants)
-        return [Issue("AG202", f"{where} must be {words}, found {_json_type(instance)} {_show(instance)}", ptr)]
+        found = _json_type(instance) if isinstance(instance, (dict, list)) else f"{_json_type(instance)} {_show(instance)}"
+        return [Issue("AG202", f"{where} must be {words}, found {found}", ptr)]
     if kw in _RANGE:
         bound = error.validator_value
         text = {

@@ -1373,6 +1373,36 @@ def _lower_bound(recipe: Mapping, profile: Mapping, cols: int) -> int | None:
 # =============================================================================================
 
 
+def value_issues(ir: Json) -> list[Issue]:
+    """The rules about single values (RC-DURATION, RC-WEIGHT, RC-VALUE, RC-RESOURCES, PR-RANGES,
+    S-GRID, S-RELEASE ... S-RESOURCES) on any IR, schema-valid or not: their checks tolerate wrong types."""
+    doc = _dict(ir)
+    kind = doc.get("kind")
+    if kind == "recipe":
+        view = recipe_view(doc)
+        return _check_numbers(doc, view) + [i for i in _check_resources(doc, view) if i.code == "AG361"]
+    if kind == "profile":
+        return _check_profile_values(doc, doc, "")
+    if kind == "scenario":
+        return _check_grid(doc) + _check_scenario_numbers(doc) + _check_scenario_resources(doc)
+    return []
+
+
+# schema codes that a rule's own code replaces at the same pointer: wrong type, out of range, not allowed
+_SCHEMA_VALUE_CODES = frozenset({"AG202", "AG203", "AG205"})
+
+
+def rule_codes(ir: Json, schema_issues: Sequence[Issue]) -> list[Issue]:
+    """Schema issues with the code and message of the spec rule a bad value breaks (F-CODES: a duration
+    of 2.5 is AG350, not the generic AG202), where a rule covers that value."""
+    if not any(i.code in _SCHEMA_VALUE_CODES for i in schema_issues):
+        return list(schema_issues)
+    by_pointer: dict[str, Issue] = {}
+    for issue in value_issues(ir):
+        by_pointer.setdefault(issue.pointer, issue)
+    return [by_pointer.get(i.pointer, i) if i.code in _SCHEMA_VALUE_CODES else i for i in schema_issues]
+
+
 def validate_document(ir: Json, resolver: Resolver | None = None) -> list[Issue]:
     """Validate any IR document by its ``kind``.
 
