@@ -41,7 +41,7 @@ from agspec.resources import catalogue_dir
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
 SUFFIXES = (".ag", ".json")
-POSITIONS_MAX_CHARS = 1024**2  # JSON texts up to this size get their source map at load time
+POSITIONS_MAX_CHARS = 256 * 1024  # JSON texts up to this size get their source map at load time
 
 # A JSON grammar with named terminals, used only for source positions (json.loads gives values).
 JSON_GRAMMAR = r"""
@@ -173,7 +173,7 @@ def _json_parser() -> Lark:
 
 
 def _srcmap(text: str) -> dict[str, Span]:
-    """Source positions of a JSON text, or {} for a large text: the positional parse costs about 70
+    """Source positions of a JSON text, or {} for a large text: the positional parse costs about 200
     times the text's size in memory, so large documents are mapped only when a diagnostic needs it
     (``check_document``)."""
     if len(text) > POSITIONS_MAX_CHARS:
