@@ -140,6 +140,10 @@ def read_instance_file(target: str | Path) -> dict[str, Any] | None:
     from agspec.ir.schemas import validate_schema
 
     problems = validate_schema(data)
+    if not problems:  # S-INSTANCE consistency (AG5xx): a simulator must never see an inconsistent instance
+        from agspec.ir.validate import errors, validate_instance
+
+        problems = errors(validate_instance(data))
     if problems:
         first = problems[0]
         raise InvalidInstanceError(f"{target}{first.pointer or ''}: error[{first.code}]: {first.message}")

@@ -603,10 +603,13 @@ def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> l
     with suite indices 0..episodes-1 plus ``small`` generated small instances."""
     from pathlib import Path
 
+    from agspec.catalogue import read_instance_file
+
     path = Path(target)
     if path.suffix == ".json" and path.exists():
-        data = limits.load_json(path)  # F-LIMITS: bounded, located reading (raises InputError)
-        if not (isinstance(data, dict) and data.get("kind") == "instance"):
+        # F-LIMITS bounded reading, schema and S-INSTANCE checks (CatalogueError, InvalidInstanceError)
+        data = read_instance_file(path)
+        if data is None:
             raise limits.InputError("AG004", "not an instance IR (kind must be \"instance\")", file=target)
         return [Subject(data.get("id") or path.stem, data, (data.get("seeds") or {}).get("execution"))]
     out = catalogue_subjects(target, range(max(1, episodes)))
