@@ -28,48 +28,12 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from agspec.ir.validate.common import (  # noqa: F401 - the package's names, one import path
-    Json,
-    MAX_CYCLES,
-    MAX_ROUTES,
-    REACH_TOLERANCE,
-    Resolver,
-    _dict,
-    _did_you_mean,
-    _err,
-    _is_int,
-    _is_num,
-    _list,
-    _prefixed,
-    _ptr,
-    _q,
-    _str,
-    _warn,
-    errors,
-)
-from agspec.ir.validate.recipe import (  # noqa: F401 - the package's names, one import path
-    Route,
-    _Finding,
-    _Op,
-    _RecipeView,
-    _check_after,
-    _check_arity,
-    _check_cycles,
-    _check_material,
+from agspec.ir.validate.common import Json, Resolver, _dict, errors
+from agspec.ir.validate.profile import _check_profile_values, validate_profile
+from agspec.ir.validate.realization import validate_instance
+from agspec.ir.validate.recipe import (
     _check_numbers,
-    _check_op_material_shape,
     _check_resources,
-    _check_roles,
-    _check_unique_names,
-    _check_xor,
-    _multiple_uses,
-    _precedence_graph,
-    _route_count,
-    _route_findings,
-    _route_text,
-    _terminal_outputs,
-    _unavailable_inputs,
-    _unused_raw,
     arity_of,
     recipe_view,
     route_graph,
@@ -78,55 +42,16 @@ from agspec.ir.validate.recipe import (  # noqa: F401 - the package's names, one
     terminal_token,
     validate_recipe,
 )
-from agspec.ir.validate.profile import (  # noqa: F401 - the package's names, one import path
-    NOT_OVERRIDABLE,
-    PROFILE_DURATIONS,
-    PROFILE_FIELDS,
-    PROFILE_FRACTIONS,
-    PROFILE_NON_NEGATIVE,
-    PROFILE_POSITIVE,
-    _check_handoff_reach,
-    _check_profile_values,
-    _check_variant,
-    _merge,
-    validate_profile,
-)
-from agspec.ir.validate.scenario import (  # noqa: F401 - the package's names, one import path
-    SCENARIO_NUMBERS,
-    _NUMBER_HINTS,
-    _NUMBER_RULES,
+from agspec.ir.validate.scenario import (
     _check_grid,
-    _check_k_topo,
-    _check_profile_ref,
-    _check_recipe_refs,
     _check_scenario_numbers,
     _check_scenario_resources,
-    _grid_k_topo,
-    _resolve,
-    _validate_scenario,
     validate_scenario,
 )
-from agspec.ir.validate.realization import (  # noqa: F401 - the package's names, one import path
-    _EmbeddedResolver,
-    _Layout,
-    _check_embedded,
-    _check_product_draws,
-    _check_products,
-    _check_profile_binding,
-    _check_raw_types,
-    _check_realization,
-    _check_shelf_access,
-    _check_shelf_pattern,
-    _check_shelves,
-    _check_source_rows,
-    _expected_product_count,
-    _expected_raw_types,
-    _layout,
-    _lower_bound,
-    _reaches_shelf,
-    _variant,
-    validate_instance,
-)
+
+__all__ = ["Resolver", "arity_of", "errors", "recipe_view", "route_graph", "route_ops", "routes", "rule_codes",
+           "terminal_token", "validate_document", "validate_instance", "validate_profile", "validate_recipe",
+           "validate_scenario", "value_issues"]
 
 
 def value_issues(ir: Json) -> list[Issue]:
