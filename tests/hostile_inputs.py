@@ -134,6 +134,7 @@ COMMANDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "instance": ("instance", ("instance", "{}")),
     "export": ("instance", ("export", "{}")),
     "run": ("instance", ("run", "{}", "--horizon", "2", "--format", "json")),
+    "evaluate": ("dsl", ("evaluate", "--scenario", "{}", "--indices", "0", "--controller", "greedy")),
     "diff": ("instance", ("diff", "--impl", "reference", "--impl", "reference", "--scenario", "{}", "--ticks", "2")),
     "check": ("trace", ("check", "{}")),
     "trace-validate": ("trace", ("trace", "validate", "{}")),

@@ -146,7 +146,14 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
     if paper:
         _evaluate_paper(jobs, out_dir, fmt)
         return
-    from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS, CatalogueError, load_scenario_bundle, parse_indices
+    from agspec.catalogue import (
+        OFFICIAL_SCENARIOS,
+        SPLITS,
+        CatalogueError,
+        InvalidDocumentError,
+        load_scenario_bundle,
+        parse_indices,
+    )
     from agspec.evaluate import evaluate as run_all
     from agspec.evaluate import summarize
     from agspec.ir.instance import make_instance
@@ -165,8 +172,8 @@ def evaluate(controllers: tuple[str, ...], scenarios: tuple[str, ...], split: st
     for name in scenarios:
         try:
             bundles[name] = load_scenario_bundle(name)
-        except CatalogueError as exc:
-            fail(str(exc))
+        except CatalogueError as exc:  # RES-EXIT-CONTENT: a document with errors is invalid input
+            fail(str(exc), EXIT_INVALID if isinstance(exc, InvalidDocumentError) else EXIT_USAGE)
     job_list = []
     for name in scenarios:
         sc, recipes, profile = bundles[name]
