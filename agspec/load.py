@@ -36,7 +36,6 @@ from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
 from agspec.formats import limits
 from agspec.ir.schemas import KINDS, validate_schema
-from agspec.ir.validate import rule_codes
 from agspec.resources import catalogue_dir
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
@@ -502,7 +501,10 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
     if doc.ir is None or doc.kind is None:
         return diags
     srcmap = _positions(doc)
-    issues = [_dsl_hint(doc, i) for i in rule_codes(doc.ir, validate_schema(doc.ir))]
+    issues = validate_schema(doc.ir)
+    if issues:  # F-CODES: a bad value gets its rule's code; the semantic checks load only when needed
+        issues = importlib.import_module("agspec.ir.validate").rule_codes(doc.ir, issues)
+    issues = [_dsl_hint(doc, i) for i in issues]
     diags += [locate(i, doc.file, srcmap()) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
