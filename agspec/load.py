@@ -172,7 +172,7 @@ def _json_parser() -> Lark:
 
 
 def _srcmap(text: str) -> dict[str, Span]:
-    """Source positions of a JSON text, or {} for a large text: the positional parse costs about 200
+    """Source positions of a JSON text, or {} for a large text (F-LIMITS-POSITIONS): the positional parse costs about 200
     times the text's size in memory, so large documents are mapped only when a diagnostic needs it
     (``check_document``)."""
     if len(text) > POSITIONS_MAX_CHARS:

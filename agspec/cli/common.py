@@ -33,7 +33,7 @@ def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
     raise SystemExit(code)
 
 
-# Seeds and suite indices (F-LIMITS): non-negative integers that JSON and the RFC 8785 canonical form
+# Seeds and suite indices (F-LIMITS-SEEDS): non-negative integers that JSON and the RFC 8785 canonical form
 # hold exactly (F-FINGERPRINT), i.e. below 2**53, so a seed always survives into a fingerprinted instance.
 SEED_MAX = 2**53 - 1
 SEED_RANGE = click.IntRange(0, SEED_MAX)
