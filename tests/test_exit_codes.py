@@ -58,3 +58,10 @@ def test_a_fifo_is_refused_by_the_real_entry_point(command, tmp_path):
     proc = subprocess.run([sys.executable, "-m", "agspec.cli.main", *argv(command, path, tmp_path)],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and "not a regular file" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_a_suite_with_a_broken_case_file_is_invalid_input(tmp_path):
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "bad.yaml").write_text("a: [1, 2\n", encoding="utf-8")
+    out = invoke(["conform", "--impl", "reference", "--suite", str(tmp_path)])
+    assert not out.crashed and out.exit_code == 1 and "bad.yaml:2" in out.output

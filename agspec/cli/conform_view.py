@@ -29,7 +29,7 @@ def _load_suite(suite_dir: str | None):
     except SuiteError as exc:
         for problem in exc.problems[:20]:
             stderr.print(f"{problem}", markup=False)
-        fail("the conformance suite cannot be loaded")
+        fail("the conformance suite cannot be loaded", EXIT_INVALID)  # RES-EXIT-CONTENT: its files are invalid
     except OSError as exc:
         fail(f"the conformance suite cannot be read: {exc}")
 
