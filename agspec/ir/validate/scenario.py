@@ -133,19 +133,20 @@ def _check_profile_ref(scenario: Mapping, resolver: Resolver, check_variant: boo
 
 # (section, key, kind): kind "pos_int" > 0 integer, "nonneg_int" >= 0 integer, "pos" > 0 number,
 # "nonneg" >= 0 number, "prob" in [0, 1].
-SCENARIO_NUMBERS: tuple[tuple[str, str, str], ...] = (
-    ("release", "interval", "pos_int"),
-    ("release", "wip_cap", "pos_int"),
-    ("evaluation", "horizon", "pos_int"),
-    ("evaluation", "batch_size", "pos_int"),
-    ("evaluation", "timeout", "pos_int"),
-    ("shelves", "capacity", "pos_int"),
-    ("shelves", "replenish_interval", "pos_int"),
-    ("shelves", "extra_access_probability", "prob"),
-    ("coordination", "support_timeout", "nonneg_int"),
-    ("coordination", "switch_lock", "nonneg_int"),
-    ("products", "due_slack", "pos"),
-    ("products", "due_slack_jitter", "nonneg"),
+# (section, key, rule, how the DSL writes it): messages name the setting as a `.ag` author wrote it
+SCENARIO_NUMBERS: tuple[tuple[str, str, str, str], ...] = (
+    ("release", "interval", "pos_int", "release every N"),
+    ("release", "wip_cap", "pos_int", "wip N"),
+    ("evaluation", "horizon", "pos_int", "evaluation continuing horizon N"),
+    ("evaluation", "batch_size", "pos_int", "evaluation batch N"),
+    ("evaluation", "timeout", "pos_int", "evaluation batch ... timeout N"),
+    ("shelves", "capacity", "pos_int", "shelves capacity N"),
+    ("shelves", "replenish_interval", "pos_int", "shelves ... replenish N"),
+    ("shelves", "extra_access_probability", "prob", "shelves ... extra_access P"),
+    ("coordination", "support_timeout", "nonneg_int", "coordination support_timeout N"),
+    ("coordination", "switch_lock", "nonneg_int", "coordination ... switch_lock N"),
+    ("products", "due_slack", "pos", "products ... due_slack X"),
+    ("products", "due_slack_jitter", "nonneg", "products ... jitter X"),
 )
 
 _NUMBER_RULES = {
@@ -160,13 +161,13 @@ _NUMBER_RULES = {
 def _check_scenario_numbers(scenario: Mapping) -> list[Issue]:
     """S-RELEASE, S-EVALUATION, S-SHELVES, S-COORDINATION, S-PRODUCTS: value ranges."""
     out: list[Issue] = []
-    for section, key, kind in SCENARIO_NUMBERS:
+    for section, key, kind, dsl in SCENARIO_NUMBERS:
         values = _dict(scenario.get(section))
         if key not in values:
             continue
         code, what, ok = _NUMBER_RULES[kind]
         if not ok(values[key]):
-            out.append(_err(code, f"`{section}.{key}` must be {what}, got {values[key]!r}",
+            out.append(_err(code, f"`{dsl}` (`{section}.{key}`): the value must be {what}, got {values[key]!r}",
                             _ptr(section, key), _NUMBER_HINTS.get(key)))
     mass = _dict(scenario.get("products")).get("mass")
     if isinstance(mass, list):
