@@ -1,4 +1,4 @@
-"""The official catalogue: scenario names, index splits, and the catalogue lock (C-LOCK).
+"""The official catalogue: scenario names, index splits, and the catalogue lock (F-LOCK).
 
 The lock file ``catalogue/lock.json`` (schema ``schemas/lock.schema.json``) pins the content of
 the official scenarios: the fingerprint of each scenario, of the recipes and profile it uses, and

@@ -16,6 +16,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Mapping, Sequence
 
+from agspec.formats.pointer import join
+
 # (line, col, end_line, end_col), all 1-based; end_col is exclusive.
 Span = tuple[int, int, int, int]
 
@@ -116,11 +118,7 @@ def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None) ->
 
 def json_pointer(*parts: object) -> str:
     """Build an RFC 6901 JSON Pointer from path parts."""
-    out = []
-    for part in parts:
-        text = str(part).replace("~", "~0").replace("/", "~1")
-        out.append(text)
-    return "/" + "/".join(out) if out else ""
+    return join(*parts)
 
 
 def has_errors(diags: Sequence[Diagnostic | Issue]) -> bool:

@@ -31,5 +31,5 @@ def spec_dir() -> Path:
 
 
 def conformance_dir() -> Path:
-    """The conformance suite (cases, instances, traces), spec chapter 09 / issue 4."""
+    """The conformance suite (cases, instances, traces), spec chapter 09."""
     return _find("conformance")

@@ -1,6 +1,6 @@
 """Index of the normative IDs declared in the spec (`### ID — title` headings of spec/*.md).
 
-The conformance suite's coverage (issue 4) is measured against this index: every rule (`R-…`) and
+The conformance suite's coverage is measured against this index: every rule (`R-…`) and
 invariant (`INV-…`) heading must be exercised by at least one case.
 """
 

@@ -170,7 +170,7 @@ from agspec.interp.observe import DELIVER, HANDOFF0, IDLE, OP0, PICK0, RECEIVE0 
 from agspec.interp.snapshot import global_state  # noqa: E402
 from agspec.interp.tick import Simulator, StepResult  # noqa: E402
 from agspec.ir.fingerprint import fingerprint  # noqa: E402
-from agspec.trace.write import TraceWriter  # noqa: E402
+from agspec.formats.trace import TraceWriter  # noqa: E402
 
 
 def cell(robot: str) -> tuple[int, int]:

@@ -136,7 +136,7 @@ def test_count_equals_brute_force(problem):  # M-CAPACITY
 
 @settings(max_examples=250, deadline=None)
 @given(small_problems())
-def test_weighted_equals_brute_force(problem):  # M-CAPACITY (weighted diagnostic)
+def test_weighted_equals_brute_force(problem):  # M-CAPACITY, M-WEIGHTED (weighted diagnostic)
     result = solve_weighted(problem)
     assert result.exact
     assert result.weighted_value == pytest.approx(brute_force(problem, weighted=True), abs=1e-9)

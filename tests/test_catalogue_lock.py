@@ -1,4 +1,4 @@
-"""C-LOCK: catalogue constants, index lists, and lock drift detection."""
+"""F-LOCK: catalogue constants, index lists, and lock drift detection."""
 
 from __future__ import annotations
 

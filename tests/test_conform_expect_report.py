@@ -15,7 +15,7 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform.report import read_report
+from agspec.formats.report import read_report
 
 FAKE = Path(__file__).resolve().parent / "fakes" / "fake_sim.py"
 WORKLOAD = ("--no-suite", "--episodes", "1", "--ticks", "5", "-k", "flow-easy or flow-medium")

@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform.report import read_report
+from agspec.formats.report import read_report
 
 FAKES = Path(__file__).resolve().parent / "fakes"
 SERVE = shutil.which("agspec")
@@ -129,5 +129,5 @@ def test_no_traceback_on_garbage_suite(tmp_path: Path):
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "bad.yaml").write_text("title: [unclosed\n", encoding="utf-8")
     result = conform("--impl", "reference", "--suite", str(tmp_path))
-    assert result.exit_code == 2
+    assert result.exit_code == 1  # F-EXIT-CODES: a case file with bad content is invalid input
     assert "Traceback" not in result.output

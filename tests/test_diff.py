@@ -16,6 +16,7 @@ from click.testing import CliRunner
 
 from agspec.cli.main import cli
 from agspec.conform import diff as D
+from agspec.formats import actions
 from agspec.conform import shrink as S
 from agspec.conform.cases import check_reference, lint_suite, load_suite
 
@@ -175,10 +176,12 @@ def test_ddmin_is_one_minimal():
 def test_symbolic_actions_round_trip():
     obs = {"pick_options": [{"id": "pick:0:A:0"}, {"id": "pick:1:A:0"}],
            "operation_options": [{"id": "op:0:fit:0,0"}, {"id": "op:0:fit:0,0;0,1"}]}
+    ids = actions.option_ids(obs)
     for action in (0, 1, 3, 36, 45, 51):
-        assert D.resolve(D.symbolic(action, obs), obs) == action
-    assert D.symbolic(51, obs) == {"support": "op:0:fit:0,0;0,1"}
-    assert D.resolve({"support": "op:9:gone:0,0"}, obs) == 0  # an option that no longer exists: idle
+        assert actions.resolve(actions.symbolic(action, *ids), *ids) == action
+    assert actions.symbolic(51, *ids) == {"support": "op:0:fit:0,0;0,1"}
+    with pytest.raises(actions.IllegalAction):  # F-SYMBOLIC-ACTIONS: an option no longer offered
+        actions.resolve({"support": "op:9:gone:0,0"}, *ids)
     assert D.generalize("/proposals/op:0:fit:0,0;0,1/expires_at") == "/proposals/*/expires_at"
 
 

@@ -155,7 +155,7 @@ def test_extractor_follows_the_convention():
 
 
 def test_every_doc_shows_at_least_one_tested_command():
-    """The user docs of issue 5 exercise their commands (reproduction.md is generated, not a guide)."""
+    """The user guides exercise their commands (reproduction.md is generated, not a guide)."""
     for name in ("validate-and-write-recipes.md", "run-and-evaluate.md", "conformance.md"):
         doc = ROOT / "docs" / name
         assert any(b.commands for b in extract(doc.read_text(encoding="utf-8")) if not b.skip), name

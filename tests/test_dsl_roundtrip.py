@@ -1,4 +1,4 @@
-"""DSL -> IR -> DSL -> IR is a fixpoint (F-DSL-FMT), on the catalogue and on generated IR."""
+"""DSL -> IR -> DSL -> IR is a fixpoint (F-DSL), on the catalogue and on generated IR."""
 
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ def test_catalogue_is_complete():
 
 
 @pytest.mark.parametrize("path", CATALOGUE, ids=lambda p: p.stem)
-def test_catalogue_file_round_trips(path: Path):  # F-DSL-FMT fixpoint
+def test_catalogue_file_round_trips(path: Path):  # F-DSL fixpoint
     text = path.read_text(encoding="utf-8")
     ir = _ir(text)
     assert validate_schema(ir) == []
@@ -122,7 +122,7 @@ def test_number_format_reads_back(value, text):
 
 @FAST
 @given(recipes())
-def test_generated_recipes_round_trip(ir):  # F-DSL-FMT on random valid recipes
+def test_generated_recipes_round_trip(ir):  # F-DSL on random valid recipes
     assert validate_schema(ir) == []
     _assert_fixpoint(ir)
 

@@ -20,7 +20,7 @@ from agspec.catalogue import OFFICIAL_SCENARIOS
 from agspec.conform.invariants import INVARIANT_IDS, check_trace
 from agspec.evaluate import run_episode
 from agspec.ir.instance import make_instance
-from agspec.trace.write import TraceWriter
+from agspec.formats.trace import TraceWriter
 
 from catalogue_fixtures import official_bundle
 
@@ -66,7 +66,7 @@ sys.path.insert(0, {tests!r})
 from catalogue_fixtures import official_bundle
 from agspec.ir.instance import make_instance
 from agspec.evaluate import run_episode
-from agspec.trace.write import TraceWriter
+from agspec.formats.trace import TraceWriter
 sc, rc, pr = official_bundle({scenario!r})
 buf = io.StringIO()
 run_episode(make_instance(sc, rc, pr, index=3), {controller!r}, seed=7, horizon=60, trace=TraceWriter(buf),

@@ -1,4 +1,4 @@
-"""Proof that the harness can fail: seeded mutant simulators must all be caught (issue 4, part 6).
+"""Proof that the harness can fail: seeded mutant simulators must all be caught (F-CONFORM).
 
 Every mutant of tests/mutants/mutant_registry.py runs as a subprocess simulator
 (``python tests/mutants/sim.py --mutant NAME``) through the conformance runner

@@ -1,4 +1,4 @@
-"""`agspec render` (issue 6): the compact replay encoding, the CLI, and the page in a real browser.
+"""`agspec render`: the compact replay encoding, the CLI, and the page in a real browser.
 
 Unit part: the keyframe + diff encoding reproduces every state and observation of a trace exactly;
 a 48-robot 400-tick page stays under 5 MB; bad input gets a located message and its exit code
@@ -39,7 +39,7 @@ def record_reference(scenario: str, ticks: int, observations: bool = False, cont
     from agspec.catalogue import load_scenario_bundle
     from agspec.evaluate import run_episode
     from agspec.ir.instance import make_instance
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
 
     sc, recipes, profile = load_scenario_bundle(scenario)
     buf = io.StringIO()

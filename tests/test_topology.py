@@ -59,7 +59,7 @@ def test_moore_neighbourhood_sizes():  # closed Moore radius 1: 8 neighbours ins
     assert degrees[(0, 3)] == 5
 
 
-def test_line_topology_links_cells_of_a_row_only():  # D-TOPOLOGY-LINE
+def test_line_topology_links_cells_of_a_row_only():  # RES-TOPOLOGY-LINE
     g = T.handoff_graph(3, 4, "line")
     assert g.has_edge((1, 0), (1, 1))
     assert not g.has_edge((0, 0), (1, 0))

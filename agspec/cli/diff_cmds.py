@@ -1,4 +1,4 @@
-"""`agspec diff`: differential testing of two implementations with shrinking (issue 4, part 5)."""
+"""`agspec diff`: differential testing of two implementations with shrinking (F-CONFORM, F-REPRO)."""
 
 from __future__ import annotations
 
@@ -80,10 +80,10 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
 
     start = time.perf_counter()
     findings: list[D.Finding] = []
-    report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.driver}
+    report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.expected_side}
     try:
         log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
-            f"{'A' if pair.driver == 'A' else 'B'} ({pair.expected_label}); {len(subjects)} instance(s)")
+            f"{pair.expected_side} ({pair.expected_label}); {len(subjects)} instance(s)")
 
         def on_episode(label: str, run: D.Run) -> None:
             status = "[green]same[/]" if run.divergence is None else "[red]DIVERGES[/]"

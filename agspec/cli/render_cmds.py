@@ -1,4 +1,4 @@
-"""`agspec render`: a self-contained HTML replay of a trace, or of a conformance divergence (issue 6)."""
+"""`agspec render`: a self-contained HTML replay of a trace, or of a conformance divergence."""
 
 from __future__ import annotations
 
@@ -133,7 +133,7 @@ def _record(impl: str, scenario: str | None, index: int, ticks: int, controller:
 
     from agspec.cli.run_cmds import load_instance
     from agspec.conform.impl import ImplSpecError
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
     from agspec.viewer.record import RecordError, record
 
     if scenario is None:

@@ -81,7 +81,7 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
     """Run one episode of SCENARIO (official name or .ag file) or INSTANCE (.json) with a reference controller."""
     from agspec.evaluate import run_episode
     from agspec.interp.observe import SlotOverflow
-    from agspec.trace.write import TraceWriter
+    from agspec.formats.trace import TraceWriter
 
     if horizon is not None and horizon < 1:
         fail("--horizon must be at least 1")

@@ -1,9 +1,8 @@
 """Comparing an implementation with the reference, and reporting the first divergence.
 
-``first_difference`` walks two JSON values in canonical order (object keys sorted, arrays by index)
-and returns the first JSON Pointer (RFC 6901) where they differ; numbers compare exactly (``1`` equals
-``1.0``, booleans are not numbers) unless a tolerance is given.  ``compare_reply`` applies it to the
-parts of a protocol reply in a fixed order (:data:`COMPARED`).
+``compare_reply`` applies the one comparison of JSON values
+(:func:`agspec.formats.pointer.first_difference`) to the parts of a protocol reply in a fixed order
+(:data:`COMPARED`).
 
 A divergence is reported CommonMark-style (``render_divergence``): the tick, the compared part and
 the JSON Pointer of the first differing field, expected vs actual, the preceding ticks' actions and
@@ -14,72 +13,19 @@ tick + the implementation command) that ``agspec conform --replay FILE`` re-runs
 from __future__ import annotations
 
 import json
-import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 from agspec import __version__
 from agspec.formats import limits
+from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
+from agspec.ir.schemas import validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
 # The parts of a reset/step reply, in the order they are compared.
 COMPARED = ("t", "state", "events", "observations", "masks", "applied", "done")
-
-
-class _Missing:
-    """A value absent on one side (rendered ``<absent>``, serialised as null + an ``*_absent`` flag)."""
-
-    def __repr__(self) -> str:
-        return "<absent>"
-
-
-MISSING = _Missing()
-
-
-def escape(token: str) -> str:
-    """RFC 6901 escaping of one reference token."""
-    return token.replace("~", "~0").replace("/", "~1")
-
-
-def _same_scalar(a: Any, b: Any, tolerance: float | None) -> bool:
-    if isinstance(a, bool) or isinstance(b, bool):
-        return isinstance(a, bool) and isinstance(b, bool) and a == b
-    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
-        if a == b:
-            return True
-        if tolerance is None or math.isnan(a) or math.isnan(b):
-            return False
-        return abs(a - b) <= tolerance  # absolute tolerance (--float-tolerance)
-    return type(a) is type(b) and a == b
-
-
-def iter_differences(expected: Any, actual: Any, pointer: str = "", tolerance: float | None = None
-                     ) -> Iterator[tuple[str, Any, Any]]:
-    """Every differing leaf (pointer, expected, actual), depth first in canonical order."""
-    if isinstance(expected, dict) and isinstance(actual, dict):
-        for key in sorted(set(expected) | set(actual), key=str):
-            sub = f"{pointer}/{escape(str(key))}"
-            if key not in actual:
-                yield (sub, expected[key], MISSING)
-            elif key not in expected:
-                yield (sub, MISSING, actual[key])
-            else:
-                yield from iter_differences(expected[key], actual[key], sub, tolerance)
-        return
-    if isinstance(expected, (list, tuple)) and isinstance(actual, (list, tuple)):
-        for i, (e, a) in enumerate(zip(expected, actual)):
-            yield from iter_differences(e, a, f"{pointer}/{i}", tolerance)
-        for i in range(min(len(expected), len(actual)), max(len(expected), len(actual))):
-            yield (f"{pointer}/{i}", expected[i] if i < len(expected) else MISSING,
-                   actual[i] if i < len(actual) else MISSING)
-        return
-    if isinstance(expected, (dict, list, tuple)) or isinstance(actual, (dict, list, tuple)):
-        yield (pointer, expected, actual)
-        return
-    if not _same_scalar(expected, actual, tolerance):
-        yield (pointer, expected, actual)
 
 
 def _canonical(value: Any) -> str | None:
@@ -89,30 +35,16 @@ def _canonical(value: Any) -> str | None:
         return None
 
 
-def first_difference(expected: Any, actual: Any, tolerance: float | None = None) -> tuple[str, Any, Any] | None:
-    """The first (pointer, expected, actual) where ``actual`` differs from ``expected``, or None."""
-    return next(iter_differences(expected, actual, "", tolerance), None)
-
-
-def to_json(value: Any) -> Any:
-    return None if value is MISSING else value
-
-
-def show(value: Any, limit: int = 160) -> str:
-    if value is MISSING:
-        return "<absent>"
-    text = json.dumps(value, sort_keys=True, ensure_ascii=False)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
 @dataclass(frozen=True)
 class Divergence:
-    """The first difference between the reference's and the implementation's reply.
+    """The first difference between the expected and the actual reply (the one divergence of agspec).
 
     ``tick``: the epoch whose step produced the reply (-1: the reset reply) — the case format's
-    ``after_tick``; ``where``: the compared part (:data:`COMPARED`); ``pointer``: JSON Pointer into
-    that part (for ``state`` a pointer into the canonical global state, e.g. ``/robots/0,1/holding``);
-    ``more``: further differing pointers of the same reply (at most 10).
+    ``after_tick``; ``where``: the compared part (:data:`COMPARED`) or ``"error"`` (one side failed:
+    crash, timeout, protocol error — ``pointer`` is then ``kind/code`` and ``side`` the failing one);
+    ``pointer``: JSON Pointer into that part (for ``state`` a pointer into the canonical global
+    state, e.g. ``/robots/0,1/holding``); ``more``: further differing pointers of the same reply (at
+    most 10).
     """
 
     tick: int
@@ -121,6 +53,8 @@ class Divergence:
     expected: Any
     actual: Any
     more: tuple[str, ...] = ()
+    message: str = ""
+    side: str = ""  # "A" or "B" for errors
 
     @property
     def path(self) -> str:
@@ -128,14 +62,38 @@ class Divergence:
         return f"/{self.where}{self.pointer}"
 
     def to_json(self) -> dict[str, Any]:
-        return {"tick": self.tick, "where": self.where, "pointer": self.pointer, "path": self.path,
-                "expected": to_json(self.expected), "actual": to_json(self.actual),
-                "expected_absent": self.expected is MISSING, "actual_absent": self.actual is MISSING,
-                "more": list(self.more)}
+        out = {"tick": self.tick, "where": self.where, "pointer": self.pointer, "path": self.path,
+               "expected": to_json(self.expected), "actual": to_json(self.actual),
+               "expected_absent": self.expected is MISSING, "actual_absent": self.actual is MISSING,
+               "more": list(self.more)}
+        if self.message:
+            out["message"] = self.message
+        if self.side:
+            out["side"] = self.side
+        return out
 
     def headline(self) -> str:
         at = "after reset" if self.tick < 0 else f"after tick {self.tick}"
         return f"{at}: {self.where} {self.pointer or '(whole)'}"
+
+    def signature(self) -> tuple[str, str]:
+        """What must stay the same while shrinking: the compared part and the pointer with every token
+        holding a digit generalised (``/robots/0,1/holding`` -> ``/robots/*/holding``)."""
+        if self.where == "error":
+            return ("error", f"{self.side}:{self.pointer}")
+        return (self.where, generalize(self.pointer))
+
+    def show(self, expected_label: str = "expected", actual_label: str = "actual") -> str:
+        if self.where == "error":
+            return self.message
+        width = max(len(expected_label), len(actual_label))
+        return (f"{self.headline()}\n"
+                f"    {expected_label:<{width}} : {show(self.expected, 200)}\n"
+                f"    {actual_label:<{width}} : {show(self.actual, 200)}")
+
+
+def generalize(pointer: str) -> str:
+    return "/".join("*" if any(ch.isdigit() for ch in tok) else tok for tok in pointer.split("/"))
 
 
 def compare_reply(tick: int, expected: Mapping[str, Any], actual: Mapping[str, Any], parts: Sequence[str],
@@ -260,7 +218,6 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
     inst = data.get("instance")
     if not isinstance(inst, dict) or inst.get("kind") != "instance":
         raise ReproError(f"{path}: /instance must be an instance IR")
-    from agspec.ir.schemas import validate_schema
 
     problems = [i for i in validate_schema(inst) if i.severity == "error"]
     if problems:
@@ -279,5 +236,5 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
 __all__ = [
     "COMPARED", "MISSING", "Divergence", "first_difference", "iter_differences", "compare_reply", "render_divergence",
     "event_summary", "action_summary", "make_reproducer", "save_reproducer", "load_reproducer", "ReproError",
-    "REPRO_FORMAT", "show", "to_json", "escape",
+    "REPRO_FORMAT", "show", "to_json", "escape", "generalize",
 ]

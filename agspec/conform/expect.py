@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+
 from agspec.conform.protocol import validate
 from agspec.formats import limits
 

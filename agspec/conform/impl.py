@@ -37,6 +37,7 @@ from typing import Any, Callable, Mapping
 
 from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
+from agspec.conform.serve import Server
 
 Reply = dict[str, Any]
 # on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
@@ -231,11 +232,15 @@ class PythonImpl(Implementation):
 class ReferenceImpl(PythonImpl):
     """The built-in reference interpreter (:class:`agspec.conform.serve.Server`), in process."""
 
-    def __init__(self, **kw: Any):
-        from agspec.conform.serve import Server
+    def __init__(self, *, observations: bool = True, masks: bool = True, **kw: Any):
 
         kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
-        super().__init__(Server, spec="reference", **kw)
+        super().__init__(lambda: Server(observations=observations, masks=masks), spec="reference", **kw)
+
+    @property
+    def simulator(self):
+        """The interpreter behind the server (what a ``global`` policy reads), or None before ``load``."""
+        return self.adapter.sim if self.adapter is not None else None
 
 
 def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:

@@ -2,7 +2,7 @@
 
 * a **case** of the conformance suite (:mod:`agspec.conform.cases`): its instance, execution seed and
   resolved action script — or its controller driver — and its expectations;
-* a catalogue **episode** (F-CONFORM-EPISODES): each official scenario at suite index 0, driven by
+* a catalogue **episode** (F-CONFORM): each official scenario at suite index 0, driven by
   the greedy controller (``e-{scenario}-greedy``) and by seeded random-masked controllers
   (``e-{scenario}-random-{k}``, seed k), acting on the *reference's* observations; ``--episodes N``
   runs the greedy one and N - 1 random ones per scenario, ``--ticks T`` steps each;
@@ -14,7 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
+from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
 from agspec.conform.cases import Case
+from agspec.ir.instance import make_instance
 
 
 @dataclass(frozen=True)
@@ -61,9 +63,7 @@ def from_case(case: Case) -> Item:
 
 def catalogue_episodes(episodes: int, ticks: int, scenarios: Sequence[str] | None = None,
                        index: int = 0) -> list[Item]:
-    """F-CONFORM-EPISODES: per official scenario, greedy plus ``episodes - 1`` seeded random episodes."""
-    from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
-    from agspec.ir.instance import make_instance
+    """F-CONFORM: per official scenario, greedy plus ``episodes - 1`` seeded random episodes."""
 
     if episodes <= 0 or ticks <= 0:
         return []

@@ -1,11 +1,14 @@
 """Running one item in lockstep with the reference interpreter (F-CONFORM).
 
-For a case, an episode or a replay: ``load`` and ``reset`` the implementation and a private
-reference :class:`~agspec.interp.tick.Simulator`; then, tick by tick, choose the joint action (the
-script, or a controller acting on the *reference's* observations), step both, and after every step
+For a case, an episode or a replay, the one lockstep driver (:func:`agspec.conform.driver.lockstep`)
+runs the implementation against a private in-process reference (``ReferenceImpl``): tick by tick
+it chooses the joint action (the script, or a controller acting on the *reference's*
+observations), steps both, and after every step
 
-1. compare the implementation's reply with the reference's (:func:`compare.compare_reply`: t, state,
-   events, observations and masks as declared by the capabilities, applied actions, done);
+1. compares the implementation's reply with the reference's (t, state, events, observations and
+   masks as declared by the capabilities, applied actions, done);
+and this module's observer (``_Checker``) goes on:
+
 2. evaluate the case's expectations on the implementation's reply (:func:`cases.mismatches`);
 3. evaluate the eleven invariants on the implementation's own trace records
    (:func:`invariants.check_records`, INV-*), built from its replies alone.
@@ -23,10 +26,12 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from agspec.conform import compare, invariants
+from agspec.conform import compare, driver, invariants
 from agspec.conform.cases import mismatches
-from agspec.conform.impl import Implementation
+from agspec.conform.driver import Pair
+from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.items import Item
+from agspec.conform.policies import ControllerPolicy, ScriptPolicy
 from agspec.conform.protocol import ProtocolError
 
 
@@ -73,73 +78,6 @@ class Result:
         return rec
 
 
-def _parts(caps: Mapping[str, bool]) -> list[str]:
-    parts = ["t", "done", "applied"]
-    if caps.get("privileged_state"):
-        parts.append("state")
-    if caps.get("events"):
-        parts.append("events")
-    if caps.get("observations"):
-        parts.append("observations")
-    if caps.get("masks"):
-        parts.append("masks")
-    return parts
-
-
-class _Reference:
-    """The reference side of the lockstep: a Simulator and what the implementation is compared with."""
-
-    def __init__(self, item: Item, caps: Mapping[str, bool]):
-        from agspec.interp.tick import Simulator
-
-        self.sim = Simulator(item.instance)
-        self.sim.reset(item.execution_seed)
-        self.caps = caps
-        self.robots = self.sim.agents()
-        self._obs: tuple[int, Any] | None = None
-        self.ctl = None
-        if item.controller is not None:
-            from agspec.controllers import make_controller
-
-            self.ctl = make_controller(item.controller["name"], item.controller.get("seed"))
-            self.ctl.reset(item.controller.get("seed"))
-
-    def observations(self) -> dict[str, Any]:
-        if self._obs is None or self._obs[0] != self.sim.t:
-            self._obs = (self.sim.t, self.sim.observe())
-        return self._obs[1]
-
-    def expected(self, events: list, applied: Mapping[str, int] | None = None) -> dict[str, Any]:
-        from agspec.interp.snapshot import global_state
-
-        sim = self.sim
-        out: dict[str, Any] = {"t": sim.t, "done": sim.done, "events": list(events)}
-        if self.caps.get("privileged_state"):
-            out["state"] = global_state(sim.state)
-        if self.caps.get("observations"):
-            out["observations"] = self.observations()
-        if self.caps.get("masks"):
-            out["masks"] = sim.masks()
-        if applied is not None:
-            out["applied"] = {r: int(applied.get(r, 0)) for r in self.robots}
-        return out
-
-    def actions(self, item: Item, t: int) -> dict[str, int]:
-        if self.ctl is not None:
-            sim = self.sim
-            chosen = self.ctl.act(self.observations(), sim if self.ctl.information == "global" else None)
-            return {r: int(a) for r, a in chosen.items() if int(a) != 0}
-        return dict(item.actions[t]) if t < len(item.actions) else {}
-
-
-def _applied(reply: Mapping[str, Any], sent: Mapping[str, int], robots: list[str]) -> dict[str, int]:
-    """Applied actions of the implementation: its ``applied`` map, else the sent actions minus coercions."""
-    if isinstance(reply.get("applied"), dict):
-        return {r: int(reply["applied"].get(r, 0)) for r in robots}
-    coerced = {e.get("robot") for e in reply.get("events") or [] if isinstance(e, dict) and e.get("type") == "action_coerced"}
-    return {r: (0 if r in coerced else int(sent.get(r, 0))) for r in robots}
-
-
 def _skip_reason(item: Item, caps: Mapping[str, bool]) -> str | None:
     if item.needs_observations and not caps.get("observations"):
         return "the case asserts observations; the implementation does not declare the observations capability"
@@ -151,12 +89,10 @@ def _skip_reason(item: Item, caps: Mapping[str, bool]) -> str | None:
 
 
 def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
-    """Run ``item`` against ``impl`` in lockstep with the reference; never raises."""
+    """Run ``item`` against ``impl`` in lockstep with the reference (:func:`driver.lockstep`); never raises."""
     res = Result(item)
     t0 = time.monotonic()
-    sent: list[dict[str, int]] = []
-    history: deque = deque(maxlen=max(0, opts.context))
-    tick = -1
+    reference = None
     try:
         impl.start()
         caps = impl.capabilities
@@ -164,50 +100,35 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reason:
             res.outcome, res.message = "skip", reason
             return res
-        parts = _parts(caps)
-        ref = _Reference(item, caps)
-        impl.load(item.instance)
-        reply = impl.reset(item.execution_seed)
-        use_state = caps.get("privileged_state", False)
-        ctx = invariants.Context.from_instance(item.instance) if use_state else None
-        prev_rec: dict[str, Any] | None = None
-        prev_obs = reply.get("observations")
-        if ctx is not None:
-            prev_rec = {"type": "header", "instance": item.instance, "execution_seed": item.execution_seed,
-                        "state": reply.get("state"), "events": reply.get("events") or []}
-        if _check(res, item, ref, -1, ref.expected(ref.sim.reset_events), reply, parts, ctx, None, prev_rec, opts,
-                  sent, history, impl):
-            return res
-        for t in range(item.ticks):
-            tick = t
-            actions = ref.actions(item, t)
-            sent.append(actions)
-            step = ref.sim.step(actions)
-            reply = impl.step(actions)
-            res.ticks += 1
-            rec = None
-            if ctx is not None:
-                rec = {"type": "tick", "t": t, "actions": _applied(reply, actions, ref.robots),
-                       "chosen": {r: int(actions.get(r, 0)) for r in ref.robots},
-                       "events": reply.get("events") or [], "state": reply.get("state")}
-                if prev_obs is not None:
-                    rec["observations"] = prev_obs
-            expected = ref.expected(step.events, step.applied if "applied" in reply else None)
-            if _check(res, item, ref, t, expected, reply, parts, ctx, prev_rec, rec, opts, sent, history, impl):
-                return res
-            history.append({"t": t, "actions": dict(actions), "events": list(reply.get("events") or [])})
-            prev_rec, prev_obs = rec, reply.get("observations")
-            if ref.sim.done:
-                break
+        if item.controller is not None:
+            policy: Any = ControllerPolicy(item.controller["name"], item.controller.get("seed"))
+        else:
+            policy = ScriptPolicy(item.actions)
+        # the reference computes observations and masks only when compared or acted on
+        reference = ReferenceImpl(observations=bool(caps.get("observations")) or policy.observes,
+                                  masks=bool(caps.get("masks")))
+        reference.start()
+        pair = Pair(reference, impl, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
+                    cache_loads=False)
+        checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False))
+        run = driver.lockstep(pair, item.instance, item.execution_seed, policy, item.ticks,
+                              tolerance=opts.tolerance, observer=checker.observe)
+        res.ticks = run.ticks
+        if run.failure is not None:
+            cause = run.failure.__cause__
+            if run.failure.side != pair.actual_side or not isinstance(cause, ProtocolError):
+                raise RuntimeError(run.failure.message) from cause  # the reference failed: a harness error
+            _protocol_error(res, item, cause, run.failure_tick)
+        elif run.both_failed:
+            raise RuntimeError(f"the reference refused step {run.ticks - 1} too: {run.both_failed}")
+        elif run.invalid:
+            raise RuntimeError(f"the item's script is invalid at {run.invalid}")
         return res
     except ProtocolError as exc:
-        res.outcome = "error"
-        res.message = str(exc)
-        res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
-                       "stderr": exc.stderr or None}
-        res.rendered = _render_error(item, exc, tick)
+        _protocol_error(res, item, exc, -1)
         return res
     except Exception as exc:  # a failure of the harness or of the reference itself
+        tick = res.ticks - 1
         res.outcome = "error"
         res.message = f"harness error: {type(exc).__name__}: {exc}"
         res.failure = {"type": "harness", "code": type(exc).__name__, "message": res.message, "tick": tick,
@@ -216,21 +137,68 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
                        "  (a bug of agspec or of the suite — please file an issue)"
         return res
     finally:
+        if reference is not None:
+            reference.close()
         res.duration_s = time.monotonic() - t0
 
 
-def _check(res: Result, item: Item, ref: _Reference, t: int, expected: dict[str, Any], reply: Mapping[str, Any],
-           parts: list[str], ctx, prev_rec, rec, opts: Options, sent, history, impl) -> bool:
-    """Compare, check expectations and invariants after one reply; True if the item failed."""
-    # `done` (in a reset reply) and `applied` are optional fields: compared when the implementation sends them
-    parts = [p for p in parts if p not in ("done", "applied") or p in reply]
-    div = compare.compare_reply(t, expected, reply, parts, opts.tolerance)
+def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> None:
+    res.outcome = "error"
+    res.message = str(exc)
+    res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
+                   "stderr": exc.stderr or None}
+    res.rendered = _render_error(item, exc, tick)
+
+
+class _Checker:
+    """The observer of a conformance item: after every reply, the driver's divergence, the case's
+    expectations and the invariants on the implementation's own trace records (F-CONFORM)."""
+
+    def __init__(self, item: Item, impl: Implementation, opts: Options, res: Result, use_state: bool):
+        self.item, self.impl, self.opts, self.res = item, impl, opts, res
+        self.ctx = invariants.Context.from_instance(item.instance) if use_state else None
+        self.sent: list[dict[str, int]] = []
+        self.history: deque = deque(maxlen=max(0, opts.context))
+        self.prev_rec: dict[str, Any] | None = None
+        self.prev_obs: Any = None
+        self.robots: list[str] = []
+
+    def observe(self, step: driver.Step) -> bool:
+        t, joint, exp, reply, div = step.t, step.joint, step.expected, step.actual, step.divergence
+        rec = None
+        if t < 0:
+            self.robots = driver.robot_order((exp.get("state") or {}).get("robots") or {})
+            if self.ctx is not None:
+                self.prev_rec = {"type": "header", "instance": self.item.instance,
+                                 "execution_seed": self.item.execution_seed, "state": reply.get("state"),
+                                 "events": reply.get("events") or []}
+        else:
+            self.sent.append(dict(joint))
+            if self.ctx is not None:
+                rec = {"type": "tick", "t": t, "actions": driver.applied_actions(reply, joint, self.robots),
+                       "chosen": {r: int(joint.get(r, 0)) for r in self.robots},
+                       "events": reply.get("events") or [], "state": reply.get("state")}
+                if self.prev_obs is not None:
+                    rec["observations"] = self.prev_obs
+        target = rec if t >= 0 else self.prev_rec
+        if _check(self.res, self.item, t, div, reply, self.ctx, self.prev_rec if t >= 0 else None, target,
+                  self.opts, self.sent, self.history, self.impl):
+            return True
+        if t >= 0:
+            self.history.append({"t": t, "actions": dict(joint), "events": list(reply.get("events") or [])})
+            self.prev_rec = rec
+        self.prev_obs = reply.get("observations")
+        return False
+
+
+def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, prev_rec, target, opts: Options,
+           sent, history, impl) -> bool:
+    """Expectations and invariants after one reply, with the driver's divergence; True if the item failed."""
     res.states += 1
     violations: list[invariants.Violation] = []
     if ctx is not None:
         before = sum(ctx.counts.values())
-        target = rec if rec is not None else prev_rec
-        violations = invariants.check_records(ctx, None if rec is None else prev_rec, target)
+        violations = invariants.check_records(ctx, prev_rec, target)
         res.invariant_checks += sum(ctx.counts.values()) - before
     failed_expectations: list[str] = []
     if item.case is not None and t >= 0:

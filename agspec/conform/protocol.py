@@ -6,23 +6,16 @@ requests, checks the replies a harness needs (F-PROTOCOL-ERRORS) and validates a
 its schema (``schemas/protocol/{cmd}.{request,reply}.schema.json``, ``error.schema.json``; Draft
 2020-12) for ``agspec conform --validate-protocol``.
 
-Schemas are compiled once with every ``$ref`` inlined (``_inline``): jsonschema's reference
-lookups dominate validation time otherwise, and a trace or protocol session validates thousands of
-records.
+Schemas are loaded, compiled and worded by :mod:`agspec.formats.schemas` (one setup for every
+format).
 """
 
 from __future__ import annotations
 
-import copy
 import json
-from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any, Mapping
 
-from jsonschema import Draft202012Validator
-from referencing import Registry, Resource
-
-from agspec.resources import schemas_dir
+from agspec.formats.schemas import SchemaProblem, schema_id, validate, validator
 
 PROTOCOL = "agspec-protocol/1"
 COMMANDS = ("start", "load", "reset", "step", "stop")
@@ -160,115 +153,7 @@ def normalize_capabilities(caps: Any) -> dict[str, bool]:
     return {k: bool(caps.get(k, False)) for k in ("observations", "masks", "privileged_state", "events")}
 
 
-# --------------------------------------------------------------------------- schemas
-
-
-@dataclass(frozen=True)
-class SchemaProblem:
-    """One schema violation: JSON Pointer into the message, stable code (AG2xx), message."""
-
-    pointer: str
-    code: str
-    message: str
-
-    def __str__(self) -> str:
-        return f"{self.pointer or '/'}: {self.message} [{self.code}]"
-
-
-@lru_cache(maxsize=1)
-def _documents() -> dict[str, dict[str, Any]]:
-    """Every agspec schema by ``$id``: schemas/*.schema.json and schemas/protocol/*.schema.json."""
-    out: dict[str, dict[str, Any]] = {}
-    root = schemas_dir()
-    for path in sorted(root.glob("*.schema.json")) + sorted((root / "protocol").glob("*.schema.json")):
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        if "$id" in doc:
-            out[doc["$id"]] = doc
-    return out
-
-
-def _resolve_pointer(doc: Any, fragment: str) -> Any:
-    cur = doc
-    for tok in fragment.lstrip("/").split("/") if fragment else []:
-        tok = tok.replace("~1", "/").replace("~0", "~")
-        cur = cur[int(tok)] if isinstance(cur, list) else cur[tok]
-    return cur
-
-
-def _inline(node: Any, base: str, docs: Mapping[str, Any], stack: tuple[str, ...] = ()) -> Any:
-    """Replace every ``$ref`` by the schema it names (``$ref`` with siblings becomes ``allOf``)."""
-    if isinstance(node, list):
-        return [_inline(x, base, docs, stack) for x in node]
-    if not isinstance(node, dict):
-        return node
-    if "$ref" in node and isinstance(node["$ref"], str):
-        ref = node["$ref"]
-        uri, _, fragment = ref.partition("#")
-        target_base = uri or base
-        key = f"{target_base}#{fragment}"
-        if key in stack or target_base not in docs:  # recursive or unknown: keep the reference
-            return {k: _inline(v, base, docs, stack) if k != "$ref" else v for k, v in node.items()}
-        target = _inline(_resolve_pointer(docs[target_base], fragment), target_base, docs, stack + (key,))
-        siblings = {k: _inline(v, base, docs, stack) for k, v in node.items() if k != "$ref"}
-        if not siblings:
-            return target
-        return {"allOf": [target], **siblings}
-    out = {}
-    for k, v in node.items():
-        if k in ("$defs", "definitions"):
-            continue  # inlined where used
-        if k in ("properties", "patternProperties", "dependentSchemas"):
-            out[k] = {name: _inline(sub, base, docs, stack) for name, sub in v.items()}
-        elif k in ("enum", "const", "required", "examples", "default"):
-            out[k] = copy.deepcopy(v)
-        else:
-            out[k] = _inline(v, base, docs, stack)
-    return out
-
-
-def schema_id(name: str) -> str:
-    """``"trace"`` -> ``urn:agspec:schema:trace:1``; ``"protocol/step.reply"`` -> the protocol schema."""
-    if name.startswith("protocol/"):
-        return f"urn:agspec:schema:protocol:{name.split('/', 1)[1]}:1"
-    return f"urn:agspec:schema:{name}:1"
-
-
-@lru_cache(maxsize=None)
-def validator(name: str) -> Draft202012Validator:
-    """A compiled validator for schema ``name`` (see :func:`schema_id`), references inlined."""
-    docs = _documents()
-    sid = schema_id(name)
-    if sid not in docs:
-        raise KeyError(f"no schema {name!r} ({sid}) under {schemas_dir()}")
-    schema = _inline(docs[sid], sid, docs)
-    registry = Registry().with_resources((k, Resource.from_contents(v)) for k, v in docs.items())
-    return Draft202012Validator(schema, registry=registry)
-
-
-def validate(name: str, doc: Any, limit: int = 5) -> list[SchemaProblem]:
-    """Schema problems of ``doc`` against schema ``name``, most relevant first, at most ``limit``."""
-    from jsonschema.exceptions import best_match
-
-    from agspec.diagnostics import json_pointer
-    from agspec.ir.schemas import _issues, _sort_key  # the IR validator's wording and AG2xx codes
-
-    errors = sorted(validator(name).iter_errors(doc), key=_sort_key)
-    out: list[SchemaProblem] = []
-    seen: set[tuple[str, str]] = set()
-    for error in errors:
-        if error.context:
-            error = best_match([error]) or error
-        issues = _issues(error) or []
-        if not issues:
-            issues = []
-        for issue in issues:
-            key = (issue.pointer, issue.message)
-            if key not in seen:
-                seen.add(key)
-                out.append(SchemaProblem(issue.pointer or json_pointer(*error.absolute_path), issue.code, issue.message))
-        if len(out) >= limit:
-            break
-    return out[:limit]
+# --------------------------------------------------------------------------- schemas (agspec.formats.schemas)
 
 
 def validate_request(msg: Any) -> list[SchemaProblem]:

@@ -1,4 +1,4 @@
-"""pytest plugin: the conformance suite as pytest items (issue 4, part 7).
+"""pytest plugin: the conformance suite as pytest items (F-CONFORM).
 
 Registered as the ``pytest11`` entry point ``agspec``, so a simulator author runs conformance inside
 their own test suite::

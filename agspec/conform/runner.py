@@ -13,13 +13,15 @@ from __future__ import annotations
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from multiprocessing.util import Finalize
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import Options, Result, run_item
-from agspec.conform.report import OUTCOMES, ReportWriter, header_record
+from agspec.conform.protocol import PROTOCOL
+from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail
 
@@ -82,7 +84,6 @@ _WORKER: dict[str, Any] = {}  # per worker process: its own implementation (neve
 
 
 def _init_worker(spec: str, timeout: float, validate: bool) -> None:
-    from multiprocessing.util import Finalize
 
     impl = make_impl(spec, timeout=timeout, validate=validate)
     _WORKER["impl"] = impl
@@ -119,7 +120,7 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
             described = impl.describe()
         except Exception as exc:  # reported per case as an error; the header says why
             described = {"spec": impl_spec, "error": str(exc)}
-        summary.header = header_record(described, dict(options_record or {}), len(items))
+        summary.header = header_record(described, dict(options_record or {}), len(items), protocol=PROTOCOL)
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}
         with ReportWriter(report_path) as report:
             report.write(summary.header)

@@ -22,6 +22,10 @@ from typing import IO, Any, Mapping
 
 from agspec import __version__
 from agspec.conform.protocol import PROTOCOL, encode, error_reply
+from agspec.interp.observe import SlotOverflow
+from agspec.interp.snapshot import global_state
+from agspec.interp.tick import Simulator
+from agspec.ir.schemas import validate_schema
 
 IMPLEMENTATION = {"name": "agspec-reference", "version": __version__, "language": "python"}
 
@@ -74,8 +78,6 @@ class Server:
         return {"protocol": PROTOCOL, "implementation": dict(IMPLEMENTATION), "capabilities": dict(self.capabilities)}
 
     def _cmd_load(self, msg: Mapping[str, Any]) -> dict[str, Any]:
-        from agspec.interp.tick import Simulator
-        from agspec.ir.schemas import validate_schema
 
         instance = msg.get("instance")
         if not isinstance(instance, dict):
@@ -92,7 +94,6 @@ class Server:
         return {}
 
     def _snapshot(self, events: list) -> dict[str, Any]:
-        from agspec.interp.snapshot import global_state
 
         sim = self.sim
         reply: dict[str, Any] = {"t": sim.t, "state": global_state(sim.state), "events": list(events)}
@@ -114,7 +115,6 @@ class Server:
         return self._snapshot(self.sim.reset_events)
 
     def _cmd_step(self, msg: Mapping[str, Any]) -> dict[str, Any]:
-        from agspec.interp.observe import SlotOverflow
 
         if self.sim is None:
             raise RequestError("not_loaded", "`step` before `load`")

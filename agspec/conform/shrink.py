@@ -31,14 +31,19 @@ implementation; :func:`write_case` saves it.
 from __future__ import annotations
 
 import copy
+import json
 import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
+import yaml
+
 from agspec.conform.compare import MISSING as _MISSING
 from agspec.conform.diff import Divergence, JointAction, Pair, Run, is_idle, non_idle, replay
+from agspec.ir.schemas import validate_schema
+from agspec.ir.validate import errors, validate_instance
 
 Json = dict[str, Any]
 
@@ -211,8 +216,6 @@ def shrink(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None, 
 
 
 def _valid(instance: Mapping[str, Any]) -> bool:
-    from agspec.ir.schemas import validate_schema
-    from agspec.ir.validate import errors, validate_instance
 
     try:
         return not (errors(validate_schema(instance)) or errors(validate_instance(instance)))
@@ -343,9 +346,7 @@ def write_case(shrunk: Shrunk, directory: str | Path, stem: str, *, title: str, 
     """Save the counterexample as a one-case suite: ``DIR/cases/STEM.yaml`` referencing
     ``DIR/instances/STEM.json`` (the layout of conformance/), so ``agspec conform --suite DIR
     --episodes 0`` replays it; returns the case file's path."""
-    import json
 
-    import yaml
 
     root = Path(directory)
     (root / "cases").mkdir(parents=True, exist_ok=True)

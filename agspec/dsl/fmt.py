@@ -1,4 +1,4 @@
-"""IR -> canonical DSL text (spec F-DSL-FMT).
+"""IR -> canonical DSL text (spec F-DSL).
 
 ``format_ir(ir)`` writes one canonical text per IR: DSL -> IR -> DSL -> IR is a fixpoint
 (the IR is equal and the text stable).  The canonical layout:

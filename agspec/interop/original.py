@@ -22,6 +22,8 @@ import json
 import math
 from typing import Any, Mapping
 
+from agspec.ir import variants
+
 INSTANCE_SCHEMA = "assemblygrid-instance-v1"
 RESULT_SCHEMA = "assemblygrid-result-v1"
 BENCHMARK = "AssemblyGrid"
@@ -290,7 +292,7 @@ def _metric_value(name: str, value: Any) -> Any:
 
 def _fidelity(profile: Mapping[str, Any]) -> str:
     if profile.get("id") == "abstract-v1":
-        if not profile.get("motion_planning", True) or not profile.get("trajectory_conflicts", True):
+        if not variants.enabled("motion_planning", profile) or not variants.enabled("trajectory_conflicts", profile):
             return "geometry-off-control"
         return "abstract-v1"
     if profile.get("id") in FIDELITIES:

@@ -20,6 +20,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping, Sequence
 
+from agspec.ir import variants
+
 Cell = tuple[int, int]  # (row, col), row-major order = tuple order (R-IDS)
 Point = tuple[float, float]  # (x, y) = (column direction, row direction) in task-space units
 Segment = tuple[Point, Point]
@@ -262,7 +264,7 @@ def plan_activity(
             raise ValueError("members have different targets: pass common_target explicitly")
         common_target = poses[0].ee
 
-    if profile.get("motion_planning", True):
+    if variants.enabled("motion_planning", profile):
         approach = max(travel)
         retreat = math.ceil(float(profile["retreat_fraction"]) * approach)
     else:

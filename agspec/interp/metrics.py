@@ -137,7 +137,7 @@ class MetricsAccumulator:
             (self.util_exact if self._exact else self.util_approx).append(k_t / self._k_star)
 
     def post_advance(self, state: State, progress: int) -> None:
-        """M-MEAN-WIP sample and M-NO-PROGRESS indicator after the clock advance."""
+        """M-MEAN-WIP sample and the R-NO-PROGRESS indicator (counted by M-NO-PROGRESS) after the clock advance."""
         self.wip_sum += state.wip
         self.wip_samples += 1
         team_active = any(a.is_operation for a in state.activities)
@@ -173,7 +173,7 @@ class MetricsAccumulator:
             "demand_fulfillment": delivered / opportunities if opportunities else None,
             "mean_wip": self.wip_sum / max(1, self.wip_samples),
             "restricted_mean_flow_time": sum(rmft_terms) / len(rmft_terms) if rmft_terms else None,
-            "mean_flow_time": sum(flow) / len(flow) if flow else None,
+            "mean_flow_time": sum(flow) / len(flow) if flow else None,  # M-FLOW-TIME
             "flow_time_p50": _pct(flow, 0.5),
             "flow_time_p90": _pct(flow, 0.9),
             "unfinished_count": released - delivered,
@@ -207,11 +207,13 @@ class MetricsAccumulator:
             "robot_occupancy": self.busy_sum / max(1, self.samples),
             "ready_feasible_fraction": self.feasible_sum / self.ready_sum if self.ready_sum else None,
             "blocked_ready_rate": 1 - self.feasible_sum / self.ready_sum if self.ready_sum else None,
-            # DIV-BR-READY-SET: the original release's variant counts only occurrences whose inputs exist
-            "blocked_ready_rate_material": 1 - self.feasible_sum / self.ready_material_sum if self.ready_material_sum else None,
+            # DIV-BR-READY-SET: the original release's variant counts only occurrences whose inputs exist;
+            # M-RATIO-FORMS: (ready - feasible) / ready, the original's arithmetic, not 1 - feasible / ready
+            "blocked_ready_rate_material": (self.ready_material_sum - self.feasible_sum) / self.ready_material_sum
+            if self.ready_material_sum else None,
             "no_progress_ticks": self.no_progress,
             "handoffs": int(c.get("handoff_count", 0)),
-            "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),
+            "handoffs_per_delivered": c.get("handoff_count", 0) / max(1, delivered),  # M-HANDOFFS
             # productive concurrency
             "capacity_mean": self.k_star_sum / max(1, self.samples),
             "realized_concurrency_mean": self.k_realized_sum / max(1, self.samples),

@@ -11,13 +11,13 @@ from typing import Any
 
 import networkx as nx
 
-from agspec.ir import topology
+from agspec.formats.actions import DIRECTION_NAMES
+from agspec.ir import topology, variants
 
 Cell = tuple[int, int]
 
 # DIRECTIONS index d -> (d_row, d_col) (O-ACTION-ENCODING)
 DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
-DIRECTION_NAMES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
 
 @dataclass(frozen=True)
@@ -164,7 +164,7 @@ class Model:
             replenish_interval=int(sc["shelves"]["replenish_interval"]),
             support_timeout=int(sc["coordination"]["support_timeout"]),
             switch_lock=int(sc["coordination"]["switch_lock"]),
-            support_visible=bool(sc["coordination"].get("support_visible", True)),
+            support_visible=variants.enabled("support_visible", sc),
             k_topo=topology.grid_k_topo(rows, cols, grid.get("topology", "moore"), int(grid.get("radius", 1))),
             pick_duration=int(prof["durations"]["pick"]),
             handoff_duration=int(prof["durations"]["handoff"]),

@@ -10,17 +10,22 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from agspec.formats.actions import (  # O-ACTION-ENCODING
+    DELIVER,
+    HANDOFF0,
+    IDLE,
+    N_ACTIONS,
+    OP0,
+    OP_SLOTS,
+    PICK0,
+    PICK_SLOTS,
+    RECEIVE0,
+)
 from agspec.interp import geometry
 from agspec.interp.candidates import Candidate, xor_closed
 from agspec.interp.model import DIRECTION_NAMES, DIRECTIONS, Model
 from agspec.interp.state import Cell, State, cell_id
 
-# O-ACTION-ENCODING
-N_ACTIONS = 114
-IDLE, DELIVER = 0, 1
-PICK0, PICK_SLOTS = 2, 32
-HANDOFF0, RECEIVE0 = 34, 42
-OP0, OP_SLOTS = 50, 64
 
 
 class SlotOverflow(RuntimeError):

@@ -5,7 +5,7 @@ raw material can reach every operation that consumes it, a handoff chain connect
 an output interface, every required operation satisfies kmin <= k_topo and admits at least one
 geometrically admissible execution candidate, and resource capacities do not make a required
 operation permanently infeasible.  This module decides that for a *scenario*, i.e. for every
-realization its generator can draw (resolution S-FEASIBILITY-ALL-REALIZATIONS):
+realization its generator can draw (RES-FEASIBILITY-ALL-REALIZATIONS):
 
 * only guaranteed shelf access counts — the own-row left-column robot (S-SHELF-ACCESS); extra
   access is random;

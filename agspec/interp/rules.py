@@ -12,6 +12,7 @@ from agspec.interp import geometry
 from agspec.interp.candidates import Candidate
 from agspec.interp.model import DIRECTIONS, Model
 from agspec.interp.state import Activity, Cell, Product, Proposal, State, cell_id
+from agspec.ir import variants
 
 Events = list[dict[str, Any]]
 
@@ -26,7 +27,7 @@ def bump(state: State, name: str, by: float = 1) -> None:
 def geometric_conflict(model: Model, plan_a, target_a, members_a, plan_b, target_b, members_b) -> bool:
     """G-CONFLICT between two motion plans (only when the profile checks trajectory conflicts)."""
     clearance = float(model.profile["clearance"])  # homogeneous population: one clearance for all
-    segments = bool(model.profile.get("trajectory_conflicts", True))
+    segments = variants.enabled("trajectory_conflicts", model.profile)
     return geometry.plans_conflict(plan_a, plan_b, float(model.profile["rho_conf"]), clearance, segments=segments)
 
 

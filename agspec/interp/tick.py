@@ -1,18 +1,10 @@
 """The simulator: ``reset`` and ``step`` executing the rules in R-TICK-ORDER.
 
-    R-TICK-ORDER (spec/05-transition.md), one decision epoch t:
-      1. pre-action snapshot of s_t: candidates, options, observations and masks, capacity K*(s_t),
-         ready/feasible occurrences (already built when s_t was entered)
-      2. action validation (R-ACTION-VALIDATION): masked or out-of-range actions become idle
-      3. picks (R-PICK), 4. handoffs (R-HANDOFF)
-      5. support recording (R-SUPPORT), admission (R-ADMISSION), in-epoch expiry (R-EXPIRY)
-      6. deliveries (R-DELIVERY)
-      7. metric sampling at t (M-*)
-      8. clock advance t <- t+1 (R-CLOCK)
-      9. completions (R-COMPLETION), 10. replenishment (R-REPLENISH), 11. release (R-RELEASE)
-     12. support expiry (R-SUPPORT-LIFECYCLE), 13. finished reservations dropped
-     14. WIP sample, no-progress tick (M-NO-PROGRESS), termination (R-TERMINATION)
-     15. candidates and observations rebuilt for s_{t+1}
+``Simulator.step`` runs the fifteen steps of R-TICK-ORDER (spec/05-transition.md) in order; each
+step is marked ``# step N: IDs`` with the spec IDs it implements, exactly the IDs the spec's list
+names for that step (tests/test_spec_guard.py parses both and compares them).  Step 1's candidate
+set, option lists and masks are built when s_t is entered (``_enter_epoch``, at the end of the
+previous step or at reset); its capacity and ready/feasible samples are taken at the top of ``step``.
 """
 
 from __future__ import annotations
@@ -87,7 +79,7 @@ class Simulator:
         self._enter_epoch()
 
     def _enter_epoch(self) -> None:
-        """R-TICK-ORDER step 15: build the decision snapshot of the current state."""
+        """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state."""
         state, model = self.state, self.model
         candidates, rejected = build_candidates(state, model)
         options = build_options(state, model, candidates)
@@ -138,7 +130,7 @@ class Simulator:
         result = StepResult(t=state.t)
         events = result.events
 
-        # 1. pre-action diagnostics on s_t
+        # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
         capacity = capacity_snapshot(state, model, d.candidates)
         ready = logically_ready_occurrences(state, model)  # M-RF-BR: R_t (paper: logical readiness)
         with_material = [(p, op) for p, op in ready if inputs_present(state, p, op)]  # DIV-BR-READY-SET
@@ -146,7 +138,7 @@ class Simulator:
         n_feasible = sum(1 for p, op in ready if (p.pid, op.id) in feasible)
         self.metrics.pre_action(capacity, len(ready), len(with_material), n_feasible)
 
-        # 2. action validation
+        # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
         decoded: dict[Cell, tuple[str, Any]] = {}
         for c in model.cells:
             a = actions[c]
@@ -160,36 +152,39 @@ class Simulator:
             result.applied[cell_id(c)] = a
             decoded[c] = decode(a, d.options[c])
 
-        progress = 0
-        n_acts = len(state.activities)
-        # 3. picks
+        progress = 0  # R-NO-PROGRESS: admissions and completions of this tick
+        # step 3: R-PICK
         rules.start_picks(state, model, [(c, arg) for c, (k, arg) in decoded.items() if k == "pick"], events)
-        # 4. handoffs
+        # step 4: R-HANDOFF
         sends = {c: arg for c, (k, arg) in decoded.items() if k == "handoff"}
         receives = {c: arg for c, (k, arg) in decoded.items() if k == "receive"}
         rules.start_handoffs(state, model, sends, receives, events)
-        # 5. support, admission, in-epoch expiry
+        # step 5: R-SUPPORT, R-SUPPORT-LIFECYCLE, R-SWITCH-LOCK, R-ADMISSION, R-JOINT-ADMISSIBLE, R-BLOCKING,
+        # R-XOR-CLOSURE, R-EXPIRY
         rules.record_supports(state, model, {c: arg for c, (k, arg) in decoded.items() if k == "support"}, events)
         progress += rules.admit_candidates(state, model, d.by_id, events)
         rules.expire_invalid_proposals(state, set(d.by_id), events)
-        # 6. deliveries
+        # step 6: R-DELIVERY
         rules.start_deliveries(state, model, [c for c, (k, _) in decoded.items() if k == "deliver"], events)
-        # 7. metric sampling at t
+        # step 7: M-SAMPLING
         self.metrics.sample(state)
-        # 8. clock
+        # step 8: R-CLOCK
         state.t += 1
-        # 9.-13.
+        # step 9: R-COMPLETION
         progress += rules.complete_activities(state, model, events)
+        # step 10: R-REPLENISH
         rules.replenish_shelves(state, model, events)
+        # step 11: (no disturbances in v1)
+        # step 12: R-RELEASE
         rules.release_product(state, model, events)
+        # step 13: R-EXPIRY
         rules.expire_proposals(state, events)
         rules.drop_finished_reservations(state)
-        # 14. post-advance samples
+        # step 14: M-MEAN-WIP, R-NO-PROGRESS
         self.metrics.post_advance(state, progress)
+        # step 15: R-TERMINATION
         result.terminated, result.truncated = self.terminated, self.truncated
-        del n_acts
-        # 15. next decision snapshot
-        self._enter_epoch()
+        self._enter_epoch()  # step 1 of the next epoch
         return result
 
     def final_metrics(self) -> dict[str, Any]:

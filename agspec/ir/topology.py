@@ -11,7 +11,7 @@ Nodes are cells ``(row, col)`` (R-IDS: row-major order = tuple order).  Supporte
 * ``moore``       — cells adjacent iff max(|di|, |dj|) <= radius (v1 default, radius 1);
 * ``von_neumann`` — cells adjacent iff |di| + |dj| <= radius;
 * ``line``        — cells adjacent iff they share a row and |dj| <= radius: every row is a
-  separate production line (D-TOPOLOGY-LINE, an agspec resolution: the paper only names Moore).
+  separate production line (RES-TOPOLOGY-LINE, an agspec resolution: the paper only names Moore).
 
 With ``radius > 1`` (RES-RADIUS, outside the official suite) G_manip uses the full relation, while
 G_handoff and G_obs keep only the pairs that are also Moore radius-1 neighbours: the action encoding

@@ -17,14 +17,14 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from agspec.formats.actions import DIRECTION_NAMES, N_ACTIONS, OP_SLOTS, PICK_SLOTS
 from agspec.interp.model import Model
-from agspec.interp.observe import N_ACTIONS, OP_SLOTS, PICK_SLOTS
 from agspec.interp.state import State
 
 # A-OBS-VECTOR block sizes: self, 8 neighbour slots, option counts, pick slots, operation slots.
 SELF_DIM, NEIGHBOUR_DIM, COUNTS_DIM, PICK_DIM, OP_DIM = 12, 10, 2, 6, 20
 OBS_DIM = SELF_DIM + 8 * NEIGHBOUR_DIM + COUNTS_DIM + PICK_SLOTS * PICK_DIM + OP_SLOTS * OP_DIM  # 1566
-DIRECTION_INDEX = {name: d for d, name in enumerate(("N", "NE", "E", "SE", "S", "SW", "W", "NW"))}
+DIRECTION_INDEX = {name: d for d, name in enumerate(DIRECTION_NAMES)}
 ROBOT_STATE_DIM, GLOBAL_STATE_DIM, PRODUCT_FIXED_DIM = 19, 6, 6
 
 assert N_ACTIONS == 114

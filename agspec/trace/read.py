@@ -7,7 +7,7 @@ the record — never a traceback.  Checks, in order:
 * the file can be read (AG001/AG002) and every non-blank line is a JSON object (AG003);
 * every record satisfies ``schemas/trace.schema.json`` (AG2xx, with the pointer of the offending
   field; at most ``max_schema_errors`` are reported);
-* the structure of the trace (AG6xx, F-TRACE-CODES): a header first (AG601), tick records with
+* the structure of the trace (AG6xx, F-CODES): a header first (AG601), tick records with
   consecutive epochs whose state is at ``t + 1`` (AG602), nothing after the footer and a single
   header (AG603), a footer (AG604: the trace is truncated), a footer that agrees with the records
   and declares the execution complete (AG605), at least one record (AG606), a header fingerprint
@@ -21,6 +21,9 @@ from typing import Any
 
 from agspec.diagnostics import Diagnostic
 from agspec.formats import limits
+from agspec.formats.jsonl import iter_lines
+from agspec.formats.schemas import validate
+from agspec.ir.fingerprint import fingerprint
 
 TRACE_CODES = {
     "AG601": "the trace does not start with a header record",
@@ -42,8 +45,6 @@ def _diag(code: str, message: str, file: str, line: int | None, pointer: str | N
 def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int = 20
                ) -> tuple[list[dict[str, Any]], list[Diagnostic]]:
     """Read ``path``; returns the parsed records and the diagnostics (empty: a valid, complete trace)."""
-    from agspec.conform.protocol import validate
-
     path = Path(path)
     file = str(path)
     diags: list[Diagnostic] = []
@@ -51,21 +52,24 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
     lines: list[int] = []
     schema_errors = 0
     try:  # F-LIMITS: file type and size first, then each record within the record limits
-        for lineno, rec in limits.iter_json_lines(path):
-            if isinstance(rec, limits.InputError):
-                diags.append(rec.diagnostic())
+        for line in iter_lines(path):
+            if not line.ok:
+                diags.append(line.diagnostic(file))
                 continue
+            rec = line.value
             if not isinstance(rec, dict):
-                diags.append(_diag("AG003", "a trace record must be a JSON object", file, lineno, col=1))
+                diags.append(_diag("AG003", "a trace record must be a JSON object", file, line.lineno, col=1))
                 continue
             if schema and schema_errors < max_schema_errors:
                 for p in validate("trace", rec, limit=3):
-                    diags.append(_diag(p.code, p.message, file, lineno, pointer=p.pointer or "/"))
+                    diags.append(_diag(p.code, p.message, file, line.lineno, pointer=p.pointer or "/"))
                     schema_errors += 1
             records.append(rec)
-            lines.append(lineno)
-    except limits.InputError as exc:
+            lines.append(line.lineno)
+    except limits.InputError as exc:  # missing, not a regular file, over the size limit
         return [], [exc.diagnostic()]
+    except OSError as exc:  # a read error after the file was opened
+        diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
     diags += _structure(records, lines, file)
     diags.sort(key=lambda d: (d.line or 0))
     return records, diags
@@ -83,8 +87,6 @@ def _structure(records: list[dict[str, Any]], lines: list[int], file: str) -> li
     header = records[0] if records[0].get("type") == "header" else None
     if header is not None and isinstance(header.get("instance"), dict) and isinstance(header.get("fingerprint"), str):
         try:
-            from agspec.ir.fingerprint import fingerprint
-
             fp = fingerprint(header["instance"])
             if fp != header["fingerprint"]:
                 out.append(_diag("AG607", f"fingerprint {header['fingerprint'][:19]}… is not the instance's ({fp[:19]}…)",

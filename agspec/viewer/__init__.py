@@ -1,4 +1,4 @@
-"""Self-contained HTML replays of traces and conformance divergences (issue 6, ``agspec render``).
+"""Self-contained HTML replays of traces and conformance divergences (``agspec render``).
 
 Data flows one way: ``encode`` turns trace records (F-TRACE) into the compact replay document
 (keyframes + per-tick diffs, documented in docs/viewer.md), ``divergence`` rebuilds the two sides of

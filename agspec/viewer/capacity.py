@@ -14,7 +14,7 @@ from typing import Any
 from agspec.interp.metrics import capacity_snapshot
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
-from agspec.trace.write import dumps as canonical  # the trace's own canonical JSON (F-TRACE)
+from agspec.formats.trace import dumps as canonical  # the trace's own canonical JSON (F-TRACE)
 
 def capacity_series(header: dict[str, Any], states: list[dict[str, Any]], actions: list[dict[str, int]]) -> list[int]:
     """[K*(s_0), K*(s_1), …] for the leading ticks whose state the reference reproduces exactly."""

@@ -14,15 +14,18 @@ are rebuilt from the reproducer, deterministically (D-DETERMINISM):
 
 from __future__ import annotations
 
+import copy
 import io
 import json
 from pathlib import Path
 from typing import Any, Mapping
 
 from agspec.formats import limits
+from agspec.formats.jsonl import iter_lines
+from agspec.formats.pointer import iter_differences, show
+from agspec.formats.trace import TraceWriter, read_records
 from agspec.viewer.encode import TraceData, encode, trace_data
 from agspec.viewer.record import record
-from agspec.trace.write import TraceWriter
 
 DIFF_FORMAT = "agspec-replay-diff/1"
 MAX_POINTERS = 200  # differing pointers kept per tick
@@ -39,14 +42,16 @@ class ReportError(ValueError):
 def read_report(path: Path) -> list[dict[str, Any]]:
     records = []
     try:  # F-LIMITS: bounded, located reading; a missing or special file is a usage error
-        for lineno, rec in limits.iter_json_lines(path):
-            if isinstance(rec, limits.InputError):
-                raise ReportError(str(rec)) from None
-            if not isinstance(rec, dict):
-                raise ReportError(f"{path}:{lineno}: a report record must be a JSON object")
-            records.append(rec)
+        for line in iter_lines(path):
+            if not line.ok:
+                raise ReportError(line.describe(str(path)))
+            if not isinstance(line.value, dict):
+                raise ReportError(f"{path}:{line.lineno}: a report record must be a JSON object")
+            records.append(line.value)
     except limits.InputError as exc:
         raise ReportError(str(exc), usage=exc.exit_code == limits.EXIT_USAGE) from None
+    except OSError as exc:
+        raise ReportError(f"{path}: cannot read: {exc}", usage=True) from None
     if not records or records[0].get("type") != "header" or not str(records[0].get("format", "")).startswith(
             "agspec-conform-report/"):
         raise ReportError(f"{path}:1: not a conformance report (F-REPORT): the first record must be its header "
@@ -97,12 +102,11 @@ def _run(impl: str, repro: Mapping[str, Any], timeout: float) -> TraceData:
     buf = io.StringIO()
     record(impl, repro["instance"], TraceWriter(buf), ticks=len(repro["actions"]),
            execution_seed=repro.get("execution_seed"), actions=repro["actions"], observations=False, timeout=timeout)
-    return trace_data([json.loads(line) for line in buf.getvalue().splitlines() if line.strip()], name=impl)
+    return trace_data(read_records(buf.getvalue().splitlines()), name=impl)
 
 
 def _pointer_set(pointer: str, state: Any, value: Any) -> Any:
     """Set the value at an RFC 6901 pointer inside ``state`` (a copy), creating nothing."""
-    import copy
 
     out = copy.deepcopy(state)
     tokens = [t.replace("~1", "/").replace("~0", "~") for t in pointer.split("/")[1:]]
@@ -126,7 +130,6 @@ def _pointer_set(pointer: str, state: Any, value: Any) -> Any:
 def build_diff(report: Path, *, case_id: str | None = None, replay: bool = False, impl: str | None = None,
                timeout: float = 5.0, keyframe: int = 25) -> dict[str, Any]:
     """The diff document: both sides encoded, the differing pointers per state index, the failure."""
-    from agspec.conform.compare import iter_differences, show
 
     records = read_report(report)
     case = pick_case(records, case_id, report)

@@ -20,7 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
-from agspec.trace.write import TraceWriter
+from agspec.conform.driver import Pair, Step, applied_actions, lockstep
+from agspec.conform.impl import make_impl
+from agspec.conform.policies import ControllerPolicy, ScriptPolicy
+from agspec.formats.trace import TraceWriter
+from agspec.ir.fingerprint import fingerprint
 
 
 class RecordError(RuntimeError):
@@ -34,14 +38,6 @@ class Recorded:
     capabilities: dict[str, bool]
 
 
-def _applied(reply: Mapping[str, Any], sent: Mapping[str, int], robots: Sequence[str]) -> dict[str, int]:
-    if isinstance(reply.get("applied"), dict):
-        return {r: int(reply["applied"].get(r, 0)) for r in robots}
-    coerced = {e.get("robot") for e in reply.get("events") or []
-               if isinstance(e, dict) and e.get("type") == "action_coerced"}
-    return {r: (0 if r in coerced else int(sent.get(r, 0))) for r in robots}
-
-
 def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, ticks: int,
            execution_seed: int | None = None, controller: str | None = "greedy", controller_seed: int | None = None,
            actions: Sequence[Mapping[str, int]] | None = None, observations: bool = False,
@@ -52,58 +48,52 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
     ``controller``. Raises :class:`RecordError` when the implementation fails; the records written so
     far stay in the file (a truncated trace, AG604, that the viewer still renders).
     """
-    from agspec.conform.impl import make_impl
-    from agspec.conform.protocol import ProtocolError
-    from agspec.controllers import make_controller
-    from agspec.interp.tick import Simulator
-    from agspec.ir.fingerprint import fingerprint
-
     seed = execution_seed if execution_seed is not None else (instance.get("seeds") or {}).get("execution")
     impl = make_impl(impl_spec, timeout=timeout)
-    ctl = None
     if actions is None:
-        ctl = make_controller(controller or "greedy", controller_seed)
-        ctl.reset(controller_seed if controller_seed is not None else seed)
-    t = -1
+        policy: Any = ControllerPolicy(controller or "greedy", controller_seed,
+                                       reset_seed=controller_seed if controller_seed is not None else seed)
+        ctl_record = {"name": policy._ctl.name, "information": policy.information}
+    else:
+        policy = ScriptPolicy([{r: int(a) for r, a in joint.items()} for joint in actions])
+        policy.observes = policy.observes or observations  # I_t for the trace: from a shadow if need be
+        ctl_record = {"name": "script"}
+    limit = min(ticks, len(actions)) if actions is not None else ticks
     try:
-        info = impl.start()
+        try:
+            info = impl.start()
+        except Exception as exc:
+            raise RecordError(f"{impl_spec} failed at tick -1: {exc}") from None
         caps = dict(impl.capabilities)
         if not caps.get("privileged_state"):
             raise RecordError(f"{impl_spec}: the implementation does not declare privileged_state; "
                               "a trace needs its global states (F-TRACE)")
-        impl.load(instance)
-        reply = impl.reset(seed)
-        own_obs = bool(caps.get("observations"))
-        ref = None
-        if ctl is not None and (not own_obs or ctl.information == "global") or observations and not own_obs:
-            ref = Simulator(instance)
-            ref.reset(seed)
-        robots = sorted((reply.get("state") or {}).get("robots") or {}, key=lambda r: tuple(map(int, r.split(","))))
-        ctl_record = {"name": ctl.name, "information": ctl.information} if ctl is not None else {"name": "script"}
-        writer.header(instance=instance, fingerprint=fingerprint(instance), execution_seed=seed,
-                      controller=ctl_record, initial_state=reply.get("state"), initial_events=reply.get("events") or [],
-                      implementation=info.get("implementation") or {"name": impl_spec, "version": "?"})
-        obs = reply.get("observations") if own_obs else (ref.observe() if ref is not None else None)
-        limit = min(ticks, len(actions)) if actions is not None else ticks
-        for t in range(limit):
-            if reply.get("done"):
-                break
-            if actions is not None:
-                sent = {r: int(a) for r, a in actions[t].items()}
+        robots: list[str] = []
+        own = bool(caps.get("observations"))
+        previous: list[Any] = [None]  # the implementation's own I_t (the reply before the step)
+
+        def write(step: Step) -> bool:
+            t, reply = step.t, step.expected
+            if t < 0:
+                robots.extend(sorted((reply.get("state") or {}).get("robots") or {},
+                                     key=lambda r: tuple(map(int, r.split(",")))))
+                writer.header(instance=instance, fingerprint=fingerprint(instance), execution_seed=seed,
+                              controller=ctl_record, initial_state=reply.get("state"),
+                              initial_events=reply.get("events") or [],
+                              implementation=info.get("implementation") or {"name": impl_spec, "version": "?"})
             else:
-                view = obs if own_obs and ctl.information != "global" else ref.observe()
-                sent = {r: int(a) for r, a in ctl.act(view, ref if ctl.information == "global" else None).items()
-                        if int(a) != 0}
-            reply = impl.step(sent)
-            if ref is not None:
-                ref.step(sent)
-            writer.tick(t=t, actions=_applied(reply, sent, robots), events=reply.get("events") or [],
-                        state=reply.get("state"), observations=obs if observations else None)
-            obs = reply.get("observations") if own_obs else (ref.observe() if ref is not None else None)
+                seen = previous[0] if own else step.observations
+                writer.tick(t=t, actions=applied_actions(reply, step.joint, robots), events=reply.get("events") or [],
+                            state=reply.get("state"), observations=seen if observations else None)
+            previous[0] = reply.get("observations")
+            return False
+
+        pair = Pair(impl, None, (impl_spec, ""), (impl_spec, ""))
+        run = lockstep(pair, instance, seed, policy, limit, observer=write)
+        if run.failure is not None:
+            raise RecordError(f"{impl_spec} failed at tick {run.failure_tick}: {run.failure.__cause__ or run.failure}")
         writer.footer(metrics={})
         return Recorded(writer.ticks, dict(info.get("implementation") or {}), caps)
-    except ProtocolError as exc:
-        raise RecordError(f"{impl_spec} failed at tick {t}: {exc}") from None
     finally:
         impl.close()
 

@@ -14,7 +14,7 @@ Every mutant declares what the harness must report for it:
   ``/observations/*/mask``; ``*`` matches one token), or the error ``kind/code`` of F-PROTOCOL-ERRORS
   (``crash/exit``, ``timeout``, ``protocol/malformed_json``);
 * ``workload`` — a small instance and controller that trigger the mutant within a few ticks;
-* ``invariant`` — for mutants that break an invariant, the INV-ID the invariant checker must report on
+* ``invariant`` — for mutants that break an invariant, the invariant ID the invariant checker must report on
   the mutant's own trace *without* the reference (None for departures only a comparison can see: a
   transfer without consent, an admission without support, a wrong duration).
 

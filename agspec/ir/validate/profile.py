@@ -7,6 +7,7 @@ import math
 from typing import Mapping
 
 from agspec.diagnostics import Issue
+from agspec.ir import variants
 from agspec.ir.validate.common import (
     Json,
     REACH_TOLERANCE,
@@ -38,6 +39,7 @@ def validate_profile(ir: Json) -> list[Issue]:
     issues += _check_handoff_reach(profile, "", None)
     for name, overrides in _dict(profile.get("variants")).items():
         issues += _check_variant(profile, str(name), overrides)
+    issues += variants.check("profile", profile)  # S-RULE-VARIANTS
     return issues
 
 

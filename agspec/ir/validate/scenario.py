@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Mapping
 
 from agspec.diagnostics import Issue
-from agspec.ir import topology
+from agspec.ir import topology, variants
 from agspec.ir.validate.common import (
     Json,
     Resolver,
@@ -38,6 +38,7 @@ def _validate_scenario(ir: Json, resolver: Resolver, *, check_variant: bool) -> 
     issues += _check_scenario_numbers(scenario)
     issues += _check_scenario_resources(scenario)
     issues += _check_k_topo(scenario, resolver)
+    issues += variants.check("scenario", scenario)  # S-RULE-VARIANTS
     return issues
 
 

@@ -9,29 +9,26 @@ validates every line (located errors, never a traceback).
 from __future__ import annotations
 
 import datetime as _dt
-import json
 from pathlib import Path
-from typing import IO, Any, Mapping
+from typing import Any, Mapping
 
 from agspec import SPEC_VERSION, __version__
-from agspec.conform.protocol import PROTOCOL, validate
 from agspec.formats import limits
+from agspec.formats.jsonl import LineWriter, iter_lines
+from agspec.formats.schemas import validate
 
 REPORT_FORMAT = "agspec-conform-report/1"
 OUTCOMES = ("pass", "fail", "error", "skip", "xfail", "xpass")
 
 
-def dumps(record: Mapping[str, Any]) -> str:
-    return json.dumps(record, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=str)
-
-
-def header_record(implementation: Mapping[str, Any], options: Mapping[str, Any], selected: int) -> dict[str, Any]:
+def header_record(implementation: Mapping[str, Any], options: Mapping[str, Any], selected: int, *,
+                  protocol: str) -> dict[str, Any]:
     return {
         "type": "header",
         "format": REPORT_FORMAT,
         "agspec_version": __version__,
         "spec_version": SPEC_VERSION,
-        "protocol": PROTOCOL,
+        "protocol": protocol,
         "started_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "implementation": dict(implementation),
         "options": dict(options),
@@ -39,29 +36,12 @@ def header_record(implementation: Mapping[str, Any], options: Mapping[str, Any],
     }
 
 
-class ReportWriter:
+class ReportWriter(LineWriter):
     """Writes report records one line at a time (flush per line); a no-op without a path."""
 
     def __init__(self, path: str | Path | None):
         self.path = Path(path) if path else None
-        self._fh: IO[str] | None = open(self.path, "w", encoding="utf-8") if self.path else None
-
-    def write(self, record: Mapping[str, Any]) -> None:
-        if self._fh is None:
-            return
-        self._fh.write(dumps(record) + "\n")
-        self._fh.flush()
-
-    def close(self) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
-
-    def __enter__(self) -> "ReportWriter":
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
+        super().__init__(self.path, default=str)
 
 
 def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
@@ -72,13 +52,14 @@ def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
     records: list[dict[str, Any]] = []
     problems: list[str] = []
     path = Path(path)
-    try:  # F-LIMITS: bounded, located reading
-        for lineno, rec in limits.iter_json_lines(path):
-            if isinstance(rec, limits.InputError):
-                problems.append(str(rec))
+    try:  # F-LIMITS: bounded, located reading (file type and size, then each record)
+        for line in iter_lines(path):
+            if not line.ok:
+                problems.append(line.describe(str(path)))
                 continue
+            rec = line.value
             for p in validate("report", rec):
-                problems.append(f"{path}:{lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
+                problems.append(f"{path}:{line.lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
             if isinstance(rec, dict):
                 records.append(rec)
     except limits.InputError as exc:
@@ -90,4 +71,4 @@ def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
     return records, problems
 
 
-__all__ = ["ReportWriter", "read_report", "header_record", "REPORT_FORMAT", "OUTCOMES", "dumps"]
+__all__ = ["ReportWriter", "read_report", "header_record", "REPORT_FORMAT", "OUTCOMES"]

@@ -1,37 +1,34 @@
-"""Trace exchange format writer (spec F-TRACE): JSON Lines, header / one record per tick / footer.
+"""The trace exchange format (spec F-TRACE): JSON Lines, header / one record per tick / footer.
 
-Records are written and flushed one by one, so a crash loses nothing already computed.
+:class:`TraceWriter` writes and flushes the records one by one, so a crash loses nothing already
+computed; :func:`read_records` streams them back (:func:`agspec.formats.jsonl.iter_lines`).  The
+structure checks with located diagnostics (F-TRACE-VALIDATE) are :mod:`agspec.trace.read`.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from typing import IO, Any, Mapping
+from typing import IO, Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats.jsonl import LineWriter, dumps, read_values
 
 TRACE_FORMAT = "agspec-trace/1"
 
 
-def dumps(record: Mapping[str, Any]) -> str:
-    """One canonical JSON line: sorted keys, no spaces, UTF-8, shortest float repr."""
-    return json.dumps(record, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+def read_records(source: str | Path | Iterable[str | bytes]) -> list[dict[str, Any]]:
+    """The records of a trace (a path or its lines); an unparsable line ends the trace (it is then
+    reported as truncated by the checks that need a footer)."""
+    return read_values(source)
 
 
 class TraceWriter:
     def __init__(self, path: str | Path | IO[str]):
-        if hasattr(path, "write"):
-            self._fh = path  # type: ignore[assignment]
-            self._owned = False
-        else:
-            self._fh = open(path, "w", encoding="utf-8")
-            self._owned = True
+        self._out = LineWriter(path)
         self.ticks = 0
 
     def _write(self, record: Mapping[str, Any]) -> None:
-        self._fh.write(dumps(record) + "\n")
-        self._fh.flush()
+        self._out.write(record)
 
     def header(self, *, instance: Mapping[str, Any], fingerprint: str, execution_seed: int | None,
                controller: Mapping[str, Any] | None, initial_state: Mapping[str, Any],
@@ -63,5 +60,7 @@ class TraceWriter:
         self._write({"type": "footer", "ticks": self.ticks, "complete": complete, "metrics": dict(metrics)})
 
     def close(self) -> None:
-        if self._owned:
-            self._fh.close()
+        self._out.close()
+
+
+__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records"]

@@ -1,0 +1,104 @@
+"""Where the joint actions of a lockstep episode come from (the policies of :mod:`agspec.conform.driver`).
+
+A policy answers ``act(t, observations, robots, simulator) -> {robot: action}`` for epoch ``t``;
+``observations`` are the driving side's (see the driver), ``simulator`` the reference interpreter
+in the driver's state (only a ``global`` policy reads it: the centralized controller).
+
+* :class:`ControllerPolicy` — a seeded reference controller (C-RANDOM, C-GREEDY, C-PARALLEL-AWARE,
+  C-CENTRALIZED);
+* :class:`ScriptPolicy` — a fixed script of integers or symbolic actions (F-SYMBOLIC-ACTIONS),
+  resolved against the driving side's option lists of that tick; ticks past its end are idle;
+* :class:`GenePolicy` — hypothesis genes: per tick and robot an integer ``g`` mapped onto the
+  robot's legal actions ``legal[g mod |legal|]`` (legal in ascending order, so 0 is idle).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+from agspec.controllers import make_controller
+from agspec.formats.actions import IDLE, option_ids, resolve
+
+
+class ControllerPolicy:
+    """A seeded reference controller acting on the driving side's observations."""
+
+    def __init__(self, controller: str, seed: int | None, *, reset_seed: int | None = None):
+        self.name = f"{controller}(seed={seed})"
+        self.controller, self.seed = controller, seed
+        self.reset_seed = seed if reset_seed is None else reset_seed
+        self._ctl = make_controller(controller, seed)
+        self.information = self._ctl.information
+        self.observes = True
+
+    def reset(self) -> None:
+        self._ctl.reset(self.reset_seed)
+
+    def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
+        if observations is None:
+            raise ValueError("controllers need observations from the driving implementation")
+        chosen = self._ctl.act(observations, simulator if self.information == "global" else None)
+        return {r: int(a) for r, a in chosen.items()}
+
+
+class ScriptPolicy:
+    """A fixed (integer or symbolic) script; ticks past its end are idle.
+
+    F-SYMBOLIC-ACTIONS: an option the robot is not offered at that tick raises
+    :class:`~agspec.formats.actions.IllegalAction` (the driver ends the run as invalid).
+    """
+
+    name = "script"
+    information = "local"
+
+    def __init__(self, script: Sequence[Mapping[str, Any]]):
+        self.script = [dict(j) for j in script]
+        # integers need no option lists: a script of integers is driven without observations
+        self.observes = any(not isinstance(a, int) or isinstance(a, bool) for j in self.script for a in j.values())
+
+    def reset(self) -> None:
+        pass
+
+    def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
+        joint = self.script[t] if t < len(self.script) else {}
+        out = {}
+        for robot, action in joint.items():
+            if isinstance(action, int) and not isinstance(action, bool):
+                a = action
+            else:
+                a = resolve(action, *option_ids((observations or {}).get(robot)))
+            if a != IDLE:
+                out[robot] = a
+        return out
+
+
+class GenePolicy:
+    """Hypothesis genes: per tick, per robot (row-major) an integer g -> legal[g mod |legal|]."""
+
+    name = "hypothesis"
+    information = "local"
+    observes = True
+
+    def __init__(self, genes: Sequence[Sequence[int]]):
+        self.genes = [list(g) for g in genes]
+
+    def reset(self) -> None:
+        pass
+
+    def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
+        genes = self.genes[t] if t < len(self.genes) else []
+        out = {}
+        for k, robot in enumerate(robots):
+            if k >= len(genes) or genes[k] == 0:
+                continue
+            mask = ((observations or {}).get(robot) or {}).get("mask")
+            if mask is None:
+                continue
+            legal = [a for a, ok in enumerate(mask) if ok]
+            a = legal[genes[k] % len(legal)]
+            if a != IDLE:
+                out[robot] = a
+        return out
+
+
+__all__ = ["ControllerPolicy", "ScriptPolicy", "GenePolicy"]

@@ -1,0 +1,128 @@
+"""JSON Lines, the container of every record stream agspec exchanges (F-TRACE, F-REPORT).
+
+One canonical line (:func:`dumps`: sorted keys, no spaces, UTF-8, shortest float repr, no NaN), one
+streaming reader (:func:`iter_lines`: one :class:`Line` per non-blank line, a line that is not UTF-8
+or not JSON, or breaks a limit, is reported, never raised) and one writer that flushes every line, so that a crash loses
+nothing already written.
+
+Reading is bounded (F-LIMITS, :mod:`agspec.formats.limits`): a path is checked for its type and size
+before it is opened, each line is read at most ``max_record_bytes`` at a time and parsed within the
+depth, number, string, duplicate-key and non-finite limits.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, Callable, Iterable, Iterator, Mapping
+
+from agspec.diagnostics import Diagnostic
+from agspec.formats import limits as _limits
+
+
+def dumps(record: Mapping[str, Any], default: Callable[[Any], Any] | None = None) -> str:
+    """One canonical JSON line: sorted keys, no spaces, UTF-8, shortest float repr."""
+    return json.dumps(record, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False,
+                      default=default)
+
+
+@dataclass(frozen=True)
+class Line:
+    """One non-blank line: its parsed value, or why it has none (``code`` AG007 not UTF-8, AG003 not
+    JSON, or the F-LIMITS code of the limit it breaks; ``hint`` says how to raise that limit)."""
+
+    lineno: int
+    value: Any = None
+    code: str | None = None
+    error: str | None = None
+    col: int | None = None
+    hint: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.code is None
+
+    def diagnostic(self, file: str | None) -> Diagnostic:
+        """The problem of a line that is not ``ok``, located in ``file``."""
+        return Diagnostic(str(self.code), str(self.error), file=file, line=self.lineno, col=self.col, hint=self.hint)
+
+    def describe(self, file: str | None) -> str:
+        """``file:line:col: error[code]: message (how to raise the limit)``, like a limits error."""
+        text = self.diagnostic(file).header()
+        return f"{text} ({self.hint})" if self.hint else text
+
+
+def _line(lineno: int, value: Any) -> Line:
+    if isinstance(value, _limits.InputError):
+        return Line(lineno, code=value.code, error=value.message, col=value.col, hint=value.hint)
+    return Line(lineno, value)
+
+
+def iter_lines(source: str | Path | Iterable[str | bytes]) -> Iterator[Line]:
+    """The non-blank lines of a file (a path, read in binary and streamed) or of an iterable of lines.
+
+    A path that is missing, not a regular file or over the size limit raises
+    :class:`agspec.formats.limits.InputError` (its ``exit_code`` says usage or invalid input); the
+    caller reports it.
+    """
+    if isinstance(source, (str, Path)):
+        for lineno, value in _limits.iter_json_lines(source):
+            yield _line(lineno, value)
+        return
+    bounds = _limits.Limits.from_env()
+    for lineno, raw in enumerate(source, start=1):
+        if not raw.strip():
+            continue
+        try:  # lines already in memory: their size was bounded when they were read
+            text = _limits.decode(raw) if isinstance(raw, bytes) else raw
+            yield Line(lineno, _limits.parse_json(text, None, bounds))
+        except _limits.InputError as exc:
+            yield _line(lineno, exc)
+
+
+def read_values(source: str | Path | Iterable[str | bytes]) -> list[Any]:
+    """The values of the leading well-formed lines; the first malformed line ends the stream (a
+    truncated write), which the structure checks then report."""
+    out = []
+    for line in iter_lines(source):
+        if not line.ok:
+            break
+        out.append(line.value)
+    return out
+
+
+class LineWriter:
+    """Writes records one canonical line at a time, flushing each; ``None`` writes nothing."""
+
+    def __init__(self, target: str | Path | IO[str] | None, default: Callable[[Any], Any] | None = None):
+        self._default = default
+        self._owned = False
+        self._fh: IO[str] | None = None
+        if target is None:
+            return
+        if hasattr(target, "write"):
+            self._fh = target  # type: ignore[assignment]
+        else:
+            self._fh = open(target, "w", encoding="utf-8")
+            self._owned = True
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        if self._fh is None:
+            return
+        self._fh.write(dumps(record, self._default) + "\n")
+        self._fh.flush()
+
+    def close(self) -> None:
+        if self._owned and self._fh is not None:
+            self._fh.close()
+        self._fh = None
+
+    def __enter__(self) -> "LineWriter":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+__all__ = ["dumps", "Line", "iter_lines", "read_values", "LineWriter"]
