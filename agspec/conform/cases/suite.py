@@ -306,7 +306,7 @@ def _build_case(entry: dict[str, Any], lines: dict[str, int], path: Path, file: 
             header, ticks, trace_digest = _read_trace(str(tpath), tpath.stat().st_mtime)
         except OSError as exc:
             raise SuiteError(Located(file, _line_for(lines, "/driver/trace"), f"trace {driver['trace']!r}: {exc.strerror}")) from None
-        except (ValueError, KeyError, TypeError) as exc:
+        except (ValueError, KeyError, TypeError, limits.InputError) as exc:  # F-LIMITS: a special or huge file
             raise SuiteError(Located(file, _line_for(lines, "/driver/trace"), f"trace {driver['trace']!r}: {exc}")) from None
 
         if fingerprint(header["instance"]) != fingerprint(instance):
