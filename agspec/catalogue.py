@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from agspec import IR_VERSION
+from agspec.formats import limits
 from agspec.interop.original import ExportError, instance_definition, instance_sha256
 from agspec.ir.fingerprint import fingerprint
 from agspec.ir.instance import make_instance
@@ -110,8 +111,11 @@ def load_scenario_bundle(name_or_path: str | Path, search_paths: Sequence[str | 
     target = str(name_or_path)
     path = Path(target)
     if path.suffix.lower() in (".ag", ".json") or path.exists():
-        if not path.is_file():
-            raise CatalogueError(f"no such file: {target}")
+        try:  # F-LIMITS: a directory, FIFO or device is refused before it is opened
+            limits.check_file(path)
+        except limits.InputError as exc:
+            if exc.exit_code == limits.EXIT_USAGE:
+                raise CatalogueError(str(exc)) from None
         doc = load_document(path)
     else:
         found = resolver.resolve_scenario_name(target)
@@ -135,17 +139,21 @@ def read_instance_file(target: str | Path) -> dict[str, Any] | None:
     is not an instance file.  Unreadable files raise CatalogueError, schema violations
     InvalidInstanceError (message located by JSON Pointer)."""
     path = Path(target)
-    if path.suffix != ".json" or not path.is_file():
+    if path.suffix != ".json" or not path.exists():
         return None
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CatalogueError(f"{target}: cannot read instance IR: {exc}") from None
+        data = limits.load_json(path)
+    except limits.InputError as exc:  # F-EXIT-CODES: I/O faults are usage errors, bad content invalid input
+        raise (CatalogueError if exc.exit_code == limits.EXIT_USAGE else InvalidInstanceError)(str(exc)) from None
     if not (isinstance(data, dict) and data.get("kind") == "instance"):
         return None
     from agspec.ir.schemas import validate_schema
 
     problems = validate_schema(data)
+    if not problems:  # S-INSTANCE consistency (AG5xx): a simulator must never see an inconsistent instance
+        from agspec.ir.validate import errors, validate_instance
+
+        problems = errors(validate_instance(data))
     if problems:
         first = problems[0]
         raise InvalidInstanceError(f"{target}{first.pointer or ''}: error[{first.code}]: {first.message}")
@@ -170,7 +178,11 @@ def load_instance(target: str | Path, index: int | None = None, seed: int | None
 
 
 def _check(doc: Any, resolver: Any, check_document: Callable[..., list]) -> None:
+    from agspec.load import io_fault
+
     diags = [d for d in check_document(doc, resolver) if d.severity == "error"]
+    if io_fault(doc, diags):
+        raise CatalogueError("\n".join(d.render() for d in diags))
     if diags:
         raise InvalidDocumentError("\n".join(d.render(doc.text) for d in diags))
 
@@ -291,12 +303,12 @@ def lock_text(lock: Mapping[str, Any]) -> str:
 
 def read_lock(path: Path | None = None) -> dict[str, Any]:
     path = path or lock_path()
+    if not path.exists():
+        raise CatalogueError(f"no lock file at {path}; create it with `agspec catalogue verify --update`")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise CatalogueError(f"no lock file at {path}; create it with `agspec catalogue verify --update`") from None
-    except (OSError, json.JSONDecodeError) as exc:
-        raise CatalogueError(f"cannot read lock file {path}: {exc}") from None
+        data = limits.load_json(path)
+    except limits.InputError as exc:
+        raise CatalogueError(f"cannot read lock file: {exc}") from None
     if not isinstance(data, dict) or data.get("schema") != LOCK_SCHEMA:
         raise CatalogueError(f"{path} is not an agspec catalogue lock ({LOCK_SCHEMA})")
     return data

@@ -12,8 +12,9 @@
   references (AG005) and semantic validation (``agspec.ir.validate.validate_document``, when
   that module is available).
 
-I/O codes: AG001 file not found, AG002 unreadable / not UTF-8, AG003 not valid JSON,
-AG004 unknown document kind or file type, AG005 unresolved include or reference,
+I/O codes: AG001 file not found, AG002 unreadable (directory, special file), AG003 not valid JSON,
+AG006 an F-LIMITS limit exceeded, AG007 not UTF-8,
+AG004 unknown document kind or file type, AG005 unresolved include, AG412/AG414 unresolved recipe/profile,
 AG000 internal error (a bug in agspec; please file an issue).
 """
 
@@ -33,11 +34,13 @@ from lark.exceptions import UnexpectedInput
 from agspec.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
+from agspec.formats import limits
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
 SUFFIXES = (".ag", ".json")
+POSITIONS_MAX_CHARS = 256 * 1024  # JSON texts up to this size get their source map at load time
 
 # A JSON grammar with named terminals, used only for source positions (json.loads gives values).
 JSON_GRAMMAR = r"""
@@ -111,24 +114,18 @@ def _failed(path: Path | None, text: str | None, *diags: Diagnostic) -> Document
 
 
 def read_text(path: Path) -> tuple[str | None, Diagnostic | None]:
-    """UTF-8 text of a file (a leading BOM dropped), or an AG001/AG002 diagnostic."""
-    file = str(path)
-    if not path.exists():
-        return None, _diag("AG001", f"file not found: {file}", file, hint="check the path")
-    if path.is_dir():
-        return None, _diag("AG002", f"cannot read {file}: it is a directory", file)
+    """UTF-8 text of a file (a leading BOM dropped), or its AG001/AG002/AG006/AG007 diagnostic (F-LIMITS)."""
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        return None, _diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
-        return None, _diag("AG002", f"{file} is not UTF-8 text (byte 0x{data[exc.start]:02x})", file, line, col,
-                           hint="save the file as UTF-8")
-    return text.removeprefix("\ufeff"), None
+        return limits.read_text(path), None
+    except limits.InputError as exc:
+        return None, exc.diagnostic()
+
+
+def io_fault(doc: Document, diags: Sequence[Diagnostic] = ()) -> bool:
+    """Whether the document could not be *reached* — missing, not a readable regular file, or of an
+    unknown file type — a usage/I/O error (exit 2) rather than invalid content (RES-EXIT-CONTENT)."""
+    return any(d.code in limits.IO_CODES for d in (*doc.diagnostics, *diags)) or (
+        doc.text is None and any(d.code == "AG004" for d in doc.diagnostics))
 
 
 def load_document(path: str | Path) -> Document:
@@ -137,8 +134,11 @@ def load_document(path: str | Path) -> Document:
     file = str(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
-        if not path.exists():
-            return _failed(path, None, _diag("AG001", f"file not found: {file}", file, hint="check the path"))
+        try:  # F-LIMITS: missing, directory and special files first (AG001/AG002)
+            limits.check_file(path)
+        except limits.InputError as exc:
+            if exc.exit_code == limits.EXIT_USAGE:
+                return _failed(path, None, exc.diagnostic())
         return _failed(path, None, _diag("AG004", f"unknown file type `{path.suffix or path.name}`", file,
                                          hint="agspec reads `.ag` (DSL) and `.json` (IR) files"))
     text, problem = read_text(path)
@@ -150,6 +150,10 @@ def load_document(path: str | Path) -> Document:
 
 def load_dsl(text: str, file: str | None = None) -> Document:
     """Parse and build DSL text (F-DSL)."""
+    try:  # F-LIMITS: a 100,000-character name is refused before the parser and the renderer see it
+        limits.check_dsl_text(text, file)
+    except limits.InputError as exc:
+        return _failed(Path(file) if file else None, text, exc.diagnostic())
     source = parse(text, file)
     built = build(source)
     kind = built.ir.get("kind") if built.ir else None
@@ -167,8 +171,16 @@ def _json_parser() -> Lark:
                 maybe_placeholders=False)
 
 
-def _reject_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not valid JSON")
+def _srcmap(text: str) -> dict[str, Span]:
+    """Source positions of a JSON text, or {} for a large text (F-LIMITS-POSITIONS): the positional parse costs about 200
+    times the text's size in memory, so large documents are mapped only when a diagnostic needs it
+    (``check_document``)."""
+    if len(text) > POSITIONS_MAX_CHARS:
+        return {}
+    try:
+        return json_positions(text)[0]
+    except (UnexpectedInput, RecursionError):  # json accepted what the grammar did not: positions unknown
+        return {}
 
 
 def _tok_span(tok: Token) -> Span:
@@ -238,20 +250,12 @@ def json_positions(text: str) -> tuple[dict[str, Span], list[tuple[str, Span]]]:
 def load_json(text: str, file: str | None = None) -> Document:
     """Read a JSON IR document (F-IR); positions from the lark JSON grammar."""
     path = Path(file) if file else None
-    try:
-        ir = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        return _failed(path, text, _diag("AG003", f"not valid JSON: {exc.msg}", file, exc.lineno, exc.colno))
-    except (ValueError, RecursionError) as exc:
-        return _failed(path, text, _diag("AG003", f"not valid JSON: {exc}", file, 1, 1))
-    try:
-        srcmap, duplicates = json_positions(text)
-    except (UnexpectedInput, RecursionError):  # json accepted what the grammar did not: positions unknown
-        srcmap, duplicates = {}, []
-    diags = [Diagnostic(code="AG206", message=f"duplicate key `{ptr.rsplit('/', 1)[-1]}`", file=file,
-                        line=span[0], col=span[1], end_line=span[2], end_col=span[3], pointer=ptr,
-                        hint="JSON readers disagree on duplicate keys; keep one")
-             for ptr, span in duplicates]
+    try:  # F-LIMITS: depth, number and string limits; duplicate keys and NaN are refused here
+        ir = limits.parse_json(text, file)
+    except limits.InputError as exc:
+        return _failed(path, text, exc.diagnostic())
+    srcmap = _srcmap(text)
+    diags: list[Diagnostic] = []
     if not isinstance(ir, dict):
         diags.append(_diag("AG004", "an IR document must be a JSON object", file, 1, 1))
         return Document(path=path, kind=None, ir=None, srcmap=srcmap, text=text, diagnostics=tuple(diags))
@@ -373,7 +377,7 @@ class Resolver:
         """Path of the scenario called ``name`` (e.g. "coalition-medium" -> catalogue file)."""
         return self.find("scenario", name)
 
-    # -- reference checks (AG005) ------------------------------------------
+    # -- reference checks (AG005 files, AG412 recipes, AG414 profiles) ------------------
     def check_references(self, doc: Document) -> list[Diagnostic]:
         """AG005 for ``use`` files that do not exist and names no search finds."""
         diags: list[Diagnostic] = []
@@ -404,7 +408,9 @@ class Resolver:
         for kind, name, ptr in refs:
             if not isinstance(name, str) or self.load(kind, name, doc) is not None:
                 continue
-            issue = Issue("AG005", f"cannot resolve {kind} `{name}`", ptr,
+            # F-CODES: a name in the product mix is AG412, the profile AG414; AG005 is for `use` files
+            code, what = ("AG412", "unknown recipe") if kind == "recipe" else ("AG414", "unknown geometry profile")
+            issue = Issue(code, f"{what} `{name}`: no file declares it", ptr,
                           hint=f"add `use \"path/{name}.ag\"`, put {name}.ag next to this file or in "
                                f"a `{kind}s/` directory, or pass a search path")
             diags.append(locate(issue, doc.file, doc.srcmap))
@@ -466,6 +472,25 @@ def _dsl_hint(doc: Document, issue: Issue) -> Issue:
     return replace(issue, hint=f"add `{spelling}`") if spelling else issue
 
 
+def _positions(doc: Document) -> Callable[[], dict[str, Span]]:
+    """The document's source map; a large JSON text loaded without one (``_srcmap``) is mapped on the
+    first call, i.e. only when there is a diagnostic to place."""
+    cache: list[dict[str, Span]] = []
+
+    def srcmap() -> dict[str, Span]:
+        if not cache:
+            found = doc.srcmap
+            if not found and doc.text is not None and len(doc.text) > POSITIONS_MAX_CHARS and doc.kind is not None:
+                try:
+                    found = json_positions(doc.text)[0]
+                except (UnexpectedInput, RecursionError):
+                    found = {}
+            cache.append(found)
+        return cache[0]
+
+    return srcmap
+
+
 def check_document(doc: Document, resolver: Resolver | None = None, *, semantic: bool = True) -> list[Diagnostic]:
     """All diagnostics of a loaded document: load/syntax/build, schema, references, semantics.
 
@@ -475,8 +500,12 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
     diags = list(doc.diagnostics)
     if doc.ir is None or doc.kind is None:
         return diags
-    issues = [_dsl_hint(doc, i) for i in validate_schema(doc.ir)]
-    diags += [locate(i, doc.file, doc.srcmap) for i in issues]
+    srcmap = _positions(doc)
+    issues = validate_schema(doc.ir)
+    if issues:  # F-CODES: a bad value gets its rule's code; the semantic checks load only when needed
+        issues = importlib.import_module("agspec.ir.validate").rule_codes(doc.ir, issues)
+    issues = [_dsl_hint(doc, i) for i in issues]
+    diags += [locate(i, doc.file, srcmap()) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
     resolver = (resolver or Resolver()).bind(doc)
@@ -490,7 +519,7 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
             diags.append(Diagnostic(code="AG000", message=f"internal error in semantic validation: {exc!r}",
                                     file=doc.file, hint="this is a bug in agspec; please file an issue"))
         else:
-            # an unresolved name is reported once, as AG005 with the search hint
+            # an unresolved name is reported once, by the reference check with the search hint
             unresolved = {d.pointer for d in references if d.pointer}
-            diags += [locate(i, doc.file, doc.srcmap) for i in found or [] if i.pointer not in unresolved]
+            diags += [locate(i, doc.file, srcmap()) for i in found or [] if i.pointer not in unresolved]
     return diags

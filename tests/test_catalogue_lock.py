@@ -165,7 +165,7 @@ def test_load_scenario_bundle_errors(tmp_path):
 
     with pytest.raises(CatalogueError, match="unknown scenario `nope`"):
         load_scenario_bundle("nope")
-    with pytest.raises(CatalogueError, match="no such file"):
+    with pytest.raises(CatalogueError, match=r"error\[AG001\]: file not found"):
         load_scenario_bundle(str(tmp_path / "missing.ag"))
     broken = tmp_path / "broken.ag"
     broken.write_text("scenario broken {\n    family flow\n", encoding="utf-8")

@@ -81,11 +81,14 @@ def test_stale_entry_fails_the_run(tmp_path: Path):
     assert records[-1]["stale"] == 1 and records[-1]["exit_code"] == 1
 
 
-def test_malformed_expectations_file_is_a_usage_error(tmp_path: Path):
+def test_malformed_expectations_file_is_invalid_input_and_a_missing_one_a_usage_error(tmp_path: Path):
+    """F-EXIT-CODES: bad content exits 1 (like every other input), a file that cannot be read 2."""
     bad = tmp_path / "bad.yaml"
     bad.write_text("c-1234:\n  outcome: maybe\n", encoding="utf-8")
     code, out = conform("--impl", "reference", "--expect", str(bad), *WORKLOAD)
-    assert code == 2 and "outcome" in out
+    assert code == 1 and "outcome" in out
+    code, out = conform("--impl", "reference", "--expect", str(tmp_path / "missing.yaml"), *WORKLOAD)
+    assert code == 2 and "AG001" in out
 
 
 def test_report_is_complete_when_the_simulator_crashes(tmp_path: Path):

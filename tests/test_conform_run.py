@@ -130,5 +130,5 @@ def test_no_traceback_on_garbage_suite(tmp_path: Path):
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "bad.yaml").write_text("title: [unclosed\n", encoding="utf-8")
     result = conform("--impl", "reference", "--suite", str(tmp_path))
-    assert result.exit_code == 2
+    assert result.exit_code == 1  # F-EXIT-CODES: a case file with bad content is invalid input
     assert "Traceback" not in result.output

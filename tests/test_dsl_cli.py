@@ -1,4 +1,5 @@
-"""`agspec validate`, `compile` and `fmt` through click's CliRunner (F-DIAGNOSTICS, F-EXIT-CODES)."""
+"""`agspec validate`, `compile` and `fmt` through click's CliRunner (F-DIAGNOSTICS, F-EXIT-CODES; a decimal
+duration is AG350, its rule's code, F-CODES)."""
 
 from __future__ import annotations
 
@@ -53,7 +54,7 @@ def test_validate_official_scenario_names_and_directories():
 def test_validate_broken_file_exits_1_with_located_diagnostic(broken: Path):
     result = run("validate", str(broken))
     assert result.exit_code == 1
-    assert re.search(rf"{re.escape(str(broken))}:7:18: error\[AG202\]: ", result.stderr)
+    assert re.search(rf"{re.escape(str(broken))}:7:18: error\[AG350\]: ", result.stderr)
     assert " 7 |         duration 2.5" in result.stderr and "^^^" in result.stderr
     assert "Traceback" not in result.stderr + result.stdout
 
@@ -63,7 +64,7 @@ def test_validate_reports_every_file(broken: Path, tmp_path: Path):
     other.write_text("recipe r { raw A\n", encoding="utf-8")
     result = run("validate", str(broken), str(other), CATALOGUE[0])
     assert result.exit_code == 1
-    assert "error[AG202]" in result.stderr and "error[AG103]" in result.stderr
+    assert "error[AG350]" in result.stderr and "error[AG103]" in result.stderr
     assert "1/3 valid" in result.stdout
 
 
@@ -75,7 +76,7 @@ def test_validate_json_output_matches_schema(broken: Path, tmp_path: Path):
     data = json.loads(result.stdout)
     Draft202012Validator(load_schema("diagnostics")).validate(data)
     assert data and all(set(d) >= {"code", "message", "file", "line", "col", "hint"} for d in data)
-    assert ("AG202", 7, 18) in {(d["code"], d["line"], d["col"]) for d in data}
+    assert ("AG350", 7, 18) in {(d["code"], d["line"], d["col"]) for d in data}
 
 
 def test_validate_missing_file_is_usage_error(tmp_path: Path):
@@ -102,7 +103,7 @@ def test_compile_prints_ir(tmp_path: Path):
 
 def test_compile_broken_file_exits_1(broken: Path):
     result = run("compile", str(broken))
-    assert result.exit_code == 1 and result.stdout == "" and "error[AG202]" in result.stderr
+    assert result.exit_code == 1 and result.stdout == "" and "error[AG350]" in result.stderr
 
 
 def test_fmt_prints_canonical_text_and_check(tmp_path: Path):
@@ -128,4 +129,4 @@ def test_fmt_of_json_ir_gives_dsl(tmp_path: Path):
 
 def test_fmt_refuses_invalid_input(broken: Path):
     result = run("fmt", str(broken))
-    assert result.exit_code == 1 and "error[AG202]" in result.stderr and result.stdout == ""
+    assert result.exit_code == 1 and "error[AG350]" in result.stderr and result.stdout == ""

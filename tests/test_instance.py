@@ -235,8 +235,10 @@ def test_user_errors():
     with pytest.raises(InstanceError, match="index or a generation seed"):
         make_instance(sc, rc, pr)
     bare = {k: v for k, v in sc.items() if k != "suite"}
-    with pytest.raises(InstanceError, match="no suite seed bases"):
-        make_instance(bare, rc, pr, index=0)
+    # RES-SEED-BASES-DEFAULT: without a suite the official seed bases apply
+    plain = make_instance(bare, rc, pr, index=2)
+    assert plain["id"] == "coalition-easy-s02" and (plain["seeds"]["generation"], plain["seeds"]["execution"]) == (
+        10002, 20002)
     assert make_instance(bare, rc, pr, generation_seed=3)["id"] == "coalition-easy-g3"
     other = dict(pr, id="ur10-case-v1")
     with pytest.raises(InstanceError, match="profile"):

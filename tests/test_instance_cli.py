@@ -72,9 +72,9 @@ def test_fingerprint_errors(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json", encoding="utf-8")
     res = run(instance_cmds.fingerprint, str(bad))
-    assert res.exit_code == 1 and "not JSON" in res.stderr
+    assert res.exit_code == 1 and "error[AG003]: not valid JSON" in res.stderr
     res = run(instance_cmds.fingerprint, str(tmp_path / "missing.json"))
-    assert res.exit_code == 2 and "no such file" in res.stderr
+    assert res.exit_code == 2 and "error[AG001]: file not found" in res.stderr
 
 
 def test_export_writes_the_original_definition(tmp_path):
@@ -128,7 +128,7 @@ def test_catalogue_verify_and_update(tmp_path, monkeypatch):
 
 
 def test_run_rejects_bad_instance_files_with_location_and_exit_code(tmp_path):
-    """agspec.catalogue.load_instance through `agspec run` (F-EXIT-CODES): unreadable -> 2,
+    """agspec.catalogue.load_instance through `agspec run` (F-EXIT-CODES): not JSON -> 1 located,
     schema-invalid -> 1 with the JSON Pointer, unknown scenario -> 2; a valid file runs."""
     from agspec.cli.main import cli
 
@@ -143,7 +143,7 @@ def test_run_rejects_bad_instance_files_with_location_and_exit_code(tmp_path):
     broken = tmp_path / "broken.json"
     broken.write_text("{not json", encoding="utf-8")
     res = run_cli(str(broken))
-    assert res.exit_code == 2 and "cannot read instance IR" in res.stderr
+    assert res.exit_code == 1 and f"{broken}:1:2: error[AG003]: not valid JSON" in res.stderr
     invalid = tmp_path / "invalid.json"
     invalid.write_text(json.dumps({**inst, "seeds": "none"}), encoding="utf-8")
     res = run_cli(str(invalid))

@@ -8,6 +8,7 @@ from typing import Any, NoReturn
 
 import click
 from rich.console import Console
+from rich.text import Text
 
 # Exit codes (spec/09-formats.md, F-EXIT-CODES). Categorical, never counts.
 EXIT_OK = 0
@@ -27,8 +28,15 @@ def emit_json(data: Any) -> None:
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
-    stderr.print(f"[bold red]error[/]: {message}", markup=True)
+    """Print ``error: MESSAGE`` (the message literally: file names and ids may contain brackets) and exit."""
+    stderr.print(Text.assemble(("error", "bold red"), ": ", message))
     raise SystemExit(code)
+
+
+# Seeds and suite indices (F-LIMITS-SEEDS): non-negative integers that JSON and the RFC 8785 canonical form
+# hold exactly (F-FINGERPRINT), i.e. below 2**53, so a seed always survives into a fingerprinted instance.
+SEED_MAX = 2**53 - 1
+SEED_RANGE = click.IntRange(0, SEED_MAX)
 
 
 FORMAT_OPTION = click.option(

@@ -33,7 +33,7 @@ def _load_suite(suite_dir: str | None):
     except SuiteError as exc:
         for problem in exc.problems[:20]:
             stderr.print(f"{problem}", markup=False)
-        fail("the conformance suite cannot be loaded")
+        fail("the conformance suite cannot be loaded", EXIT_INVALID)  # RES-EXIT-CONTENT: its files are invalid
     except OSError as exc:
         fail(f"the conformance suite cannot be read: {exc}")
 
@@ -49,7 +49,7 @@ def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, 
         try:
             data = load_reproducer(replay_path)
         except ReproError as exc:
-            fail(str(exc))
+            fail(str(exc), exc.exit_code)
         spec = impl_spec or data.get("impl")
         if not spec:
             fail("--replay needs --impl (the reproducer names no implementation)")
@@ -75,7 +75,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
     try:
         expectations = load_expectations(path)
     except ExpectError as exc:
-        fail(str(exc))
+        fail(str(exc), exc.exit_code)
     return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=OFFICIAL_SCENARIOS)
 
 

@@ -8,10 +8,12 @@ from typing import Any
 
 import click
 
+from agspec.catalogue import InvalidDocumentError, InvalidInstanceError
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
 from agspec.conform.teardown import exit_on_signals
+from agspec.formats import limits
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
@@ -68,7 +70,11 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     for target in scenarios or DEFAULT_SCENARIOS:
         try:
             subjects += D.load_subjects(target, episodes, seed, small=small)
-        except Exception as exc:  # CatalogueError, InvalidDocumentError, bad JSON: usage errors
+        except limits.InputError as exc:
+            fail(f"--scenario {target}: {exc}", exc.exit_code)
+        except (InvalidDocumentError, InvalidInstanceError) as exc:  # F-EXIT-CODES: invalid input
+            fail(f"--scenario {target}: {exc}", EXIT_INVALID)
+        except Exception as exc:  # CatalogueError (unknown name, unreadable file): usage errors
             fail(f"--scenario {target}: {exc}", EXIT_USAGE)
     # SIGTERM / SIGHUP raise SystemExit, so pair.close() below kills both process groups (F-PROTOCOL-TEARDOWN)
     click.get_current_context().with_resource(exit_on_signals())

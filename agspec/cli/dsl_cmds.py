@@ -27,12 +27,13 @@ from agspec.cli.common import (
     EXIT_USAGE,
     FORMAT_OPTION,
     emit_json,
+    fail,
     stderr,
     stdout,
 )
 from agspec.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
-from agspec.load import Document, Resolver, check_document, load_document, resolve_argument
+from agspec.load import Document, Resolver, check_document, io_fault, load_document, resolve_argument
 
 SEARCH_PATH_OPTION = click.option(
     "-I", "--search-path", "search_paths", multiple=True,
@@ -69,7 +70,10 @@ def _expand(args: Sequence[str], search_paths: Sequence[Path]) -> list[Path]:
     for arg in args:
         path = resolve_argument(arg, search_paths)
         if path.is_dir():
-            out += sorted(p for p in path.rglob("*.ag") if p.is_file())
+            found = sorted(p for p in path.rglob("*.ag") if p.is_file())
+            if not found:  # F-EXIT-CODES: nothing checked is not "valid"
+                fail(f"{arg}: a directory without .ag files", EXIT_USAGE)
+            out += found
         else:
             out.append(path)
     return out
@@ -78,7 +82,9 @@ def _expand(args: Sequence[str], search_paths: Sequence[Path]) -> list[Path]:
 def _exit_code(docs: Sequence[Document], diags: Sequence[Diagnostic]) -> int:
     if any(d.code == "AG000" for d in diags):
         return EXIT_INTERNAL
-    if any(doc.text is None for doc in docs):
+    # F-EXIT-CODES: a file that is missing or not a readable regular file, or of an unknown type, is a
+    # usage/I/O error; anything wrong with its content (encoding, limits, syntax, ...) is invalid input
+    if any(io_fault(doc, diags) for doc in docs):
         return EXIT_USAGE
     if any(d.severity == "error" for d in diags):
         return EXIT_INVALID

@@ -16,7 +16,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.cli.common import emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.controllers import CONTROLLERS
 
 # the mechanism diagnostics the paper reports beside the outcomes (tab:coalcoord-full and siblings)
@@ -136,7 +136,7 @@ class Campaign:
 
     def jobs(self) -> tuple[list, list[dict[str, Any]]]:
         """Jobs still to run (episodes in --from bundles are reused) and the instances' identities."""
-        from agspec.catalogue import CatalogueError, load_scenario_bundle
+        from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
         from agspec.evaluate import Job
         from agspec.ir.fingerprint import fingerprint
         from agspec.ir.instance import make_instance
@@ -146,8 +146,8 @@ class Campaign:
         for name in self.scenarios:
             try:
                 sc, recipes, profile = load_scenario_bundle(name)
-            except CatalogueError as exc:
-                fail(str(exc))
+            except CatalogueError as exc:  # RES-EXIT-CONTENT: a document with errors is invalid input
+                fail(str(exc), EXIT_INVALID if isinstance(exc, InvalidDocumentError) else EXIT_USAGE)
             for n, k in enumerate(self.indices):
                 inst = make_instance(sc, recipes, profile, index=k)
                 instances.append({"scenario": name, "index": k, "id": inst["id"], "fingerprint": fingerprint(inst),

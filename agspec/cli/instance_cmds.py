@@ -23,18 +23,31 @@ from agspec.catalogue import (
     verify_lock,
     write_lock,
 )
-from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+from agspec.cli.common import (
+    EXIT_INVALID,
+    EXIT_OK,
+    EXIT_USAGE,
+    FORMAT_OPTION,
+    SEED_RANGE,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
+from agspec.formats import limits
 from agspec.interop.original import ExportError, instance_definition, instance_sha256, original_instance_id
 from agspec.ir.fingerprint import FingerprintError
 from agspec.ir.fingerprint import fingerprint as ir_fingerprint
 from agspec.ir.instance import InstanceError, make_instance
+from agspec.load import Resolver, check_document, io_fault, load_document
+from agspec.resources import catalogue_dir
 
 EXPORT_FORMATS = ("assemblygrid-instance-v1",)
 
 
 def _fail(message: str, code: int) -> NoReturn:
     """common.fail with the message shown literally (paths and diagnostics contain brackets)."""
-    fail(escape(message), code)
+    fail(message, code)
 
 
 def _error(message: str) -> None:
@@ -74,16 +87,16 @@ def _make(name: str, index: int | None, seed: int | None, execution_seed: int | 
         _fail(str(exc), EXIT_USAGE)
 
 
-INDEX_OPTION = click.option("--index", type=click.IntRange(min=0), default=None,
+INDEX_OPTION = click.option("--index", type=SEED_RANGE, default=None,
                             help="Suite index k (generation seed = base + k). Default: 0.")
-SEED_OPTION = click.option("--seed", type=int, default=None, help="Explicit generation seed (instead of --index).")
+SEED_OPTION = click.option("--seed", type=SEED_RANGE, default=None, help="Explicit generation seed (instead of --index).")
 
 
 @click.command("instance")
 @click.argument("scenario")
 @INDEX_OPTION
 @SEED_OPTION
-@click.option("--execution-seed", type=int, default=None, help="Override the execution seed.")
+@click.option("--execution-seed", type=SEED_RANGE, default=None, help="Override the execution seed.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the instance IR to FILE instead of stdout.")
 def instance(scenario: str, index: int | None, seed: int | None, execution_seed: int | None,
@@ -101,32 +114,16 @@ def instance(scenario: str, index: int | None, seed: int | None, execution_seed:
 
 
 def _load_ir(target: str) -> dict[str, Any]:
-    """IR of a .json file, an .ag file, or an official scenario name (raises on failure)."""
+    """The checked IR of a .json file, an .ag file, or an official scenario name (F-FINGERPRINT hashes
+    only valid documents). Raises CatalogueError (not found, unreadable) or InvalidDocumentError."""
     path = Path(target)
-    if path.suffix == ".json" or (path.exists() and path.suffix != ".ag"):
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise CatalogueError(f"no such file: {target}") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise CatalogueError(f"cannot read {target}: {exc}") from None
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{target}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
-        if not isinstance(data, dict) or "kind" not in data:
-            raise ValueError(f"{target}: not an agspec IR document (a JSON object with a `kind`)")
-        return data
-    if path.suffix == ".ag":
-        if not path.is_file():
-            raise CatalogueError(f"no such file: {target}")
-        try:
-            from agspec.load import load_document
-        except ImportError as exc:  # pragma: no cover
-            raise CatalogueError(f"the DSL loader is unavailable ({exc})") from None
+    if path.suffix in (".json", ".ag") or path.exists():
         doc = load_document(path)
-        errors = [d for d in getattr(doc, "diagnostics", []) or [] if getattr(d, "severity", "error") == "error"]
-        if errors or getattr(doc, "ir", None) is None:
-            source = path.read_text(encoding="utf-8", errors="replace")
-            raise ValueError("\n".join(d.render(source) for d in errors) or f"{target}: cannot load")
+        diags = [d for d in check_document(doc, Resolver()) if d.severity == "error"]
+        if io_fault(doc, diags):
+            raise CatalogueError("\n".join(d.render() for d in diags))
+        if diags or doc.ir is None:
+            raise InvalidDocumentError("\n".join(d.render(doc.text) for d in diags) or f"{target}: cannot load")
         return doc.ir
     return load_scenario_bundle(target)[0]
 
@@ -167,11 +164,11 @@ def fingerprint(files: tuple[str, ...], fmt: str) -> None:
 
 def _instance_for_export(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
     path = Path(target)
-    if path.suffix == ".json" and path.is_file():
+    if path.suffix == ".json" and path.exists():
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            _fail(f"cannot read {target}: {exc}", EXIT_USAGE)
+            data = limits.load_json(path)
+        except limits.InputError as exc:
+            _fail(str(exc), exc.exit_code)
         if isinstance(data, dict) and data.get("kind") == "instance":
             if index is not None or seed is not None:
                 _fail("--index/--seed cannot be used with an instance file", EXIT_USAGE)
@@ -244,9 +241,15 @@ def catalogue_list(fmt: str) -> None:
     stdout.print(table)
 
 
-def _current_lock() -> dict[str, Any]:
+def _current_lock(root: Path | None) -> dict[str, Any]:
+    """Lock data recomputed from the catalogue at ``root`` (default: the one agspec was installed with)."""
+    if root is None:
+        load = load_scenario_bundle
+    else:
+        def load(name: str) -> Any:
+            return load_scenario_bundle(root / "scenarios" / f"{name}.ag")
     try:
-        return lock_entries(load_scenario_bundle)
+        return lock_entries(load)
     except InvalidDocumentError as exc:
         _fail(str(exc), EXIT_INVALID)
     except CatalogueError as exc:
@@ -255,14 +258,27 @@ def _current_lock() -> dict[str, Any]:
         _fail(f"cannot realize the catalogue: {exc}", EXIT_INVALID)
 
 
+def _which_catalogue(root: Path | None) -> str:
+    """Which copy of the catalogue a command reads: a clone's working tree is not the installed copy."""
+    if root is not None:
+        return f"checking the catalogue in {root}"
+    here = catalogue_dir()
+    where = "the copy installed with agspec" if "_data" in here.parts else "the source tree agspec runs from"
+    return f"checking {here} ({where}; give --catalogue DIR for another copy)"
+
+
 @catalogue.command("verify")
 @click.option("--update", is_flag=True, help="Rewrite catalogue/lock.json from the current catalogue.")
 @click.option("--lock", "lock_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Lock file to check (default: the catalogue's lock.json).")
-def catalogue_verify(update: bool, lock_file: Path | None) -> None:
+@click.option("--catalogue", "root", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
+              help="The catalogue directory to check, e.g. a clone's catalogue/ (default: the copy agspec "
+                   "runs from, printed first).")
+def catalogue_verify(update: bool, lock_file: Path | None, root: Path | None = None) -> None:
     """Recompute scenario and realization fingerprints and compare them with the lock."""
-    path = lock_file or lock_path()
-    current = _current_lock()
+    path = lock_file or (root / "lock.json" if root is not None else lock_path())
+    stderr.print(_which_catalogue(root), markup=False)
+    current = _current_lock(root)
     if update:
         try:
             write_lock(current, path)
@@ -294,4 +310,4 @@ def catalogue_verify(update: bool, lock_file: Path | None) -> None:
 @click.pass_context
 def catalogue_lock(ctx: click.Context, lock_file: Path | None) -> None:
     """Rewrite the lock (same as `catalogue verify --update`)."""
-    ctx.invoke(catalogue_verify, update=True, lock_file=lock_file)
+    ctx.invoke(catalogue_verify, update=True, lock_file=lock_file, root=None)

@@ -9,7 +9,8 @@ import traceback
 import click
 
 from agspec import __version__
-from agspec.cli.common import EXIT_INTERNAL, EXIT_USAGE, stderr
+from agspec.cli.common import EXIT_INTERNAL, stderr
+from agspec.cli.examples import attach
 
 # command name -> "module:function" (imported lazily so a broken module never breaks the CLI)
 COMMANDS = {
@@ -41,7 +42,7 @@ class LazyGroup(click.Group):
         if target is None:
             return None
         module, attr = target.split(":")
-        return getattr(importlib.import_module(module), attr)
+        return attach(getattr(importlib.import_module(module), attr), name)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from rich.markup import escape
 
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, fail, stderr, stdout
 from agspec.controllers import CONTROLLERS
@@ -99,7 +100,7 @@ def _encode(path: Path, keyframe: int, title: str | None) -> dict:
     # unusable: nothing parsed, or no header first; anything else (a truncated or schema-invalid trace
     # of a crashed simulator) is still worth looking at, with warnings
     if not records or records[0].get("type") != "header":
-        order = {"AG003": 0, "AG002": 1, "AG601": 2, "AG606": 3}
+        order = {"AG003": 0, "AG006": 0, "AG007": 0, "AG206": 0, "AG002": 1, "AG601": 2, "AG606": 3}
         d = min((d for d in diags if d.code in order), key=lambda d: order[d.code], default=None)
         if d is not None:
             fail(f"{path}:{d.line or 1}: error[{d.code}]: {d.message}", EXIT_INVALID)
@@ -110,7 +111,7 @@ def _encode(path: Path, keyframe: int, title: str | None) -> dict:
             warnings.append(f"{path}: record {idx + 1} ({records[idx].get('type')}): {p.code}: "
                             f"{p.pointer or '/'}: {p.message}")
     for w in warnings[:6]:
-        stderr.print(f"[yellow]warning[/]: {w}", markup=True, highlight=False)
+        stderr.print(f"[yellow]warning[/]: {escape(w)}", markup=True, highlight=False)
     if len(warnings) > 6:
         stderr.print(f"[yellow]warning[/]: … {len(warnings) - 6} more problem(s)")
     if warnings:

@@ -11,7 +11,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, SEED_RANGE, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
 
@@ -57,12 +57,12 @@ def _fmt(value: Any, spec: str) -> str:
 
 def load_instance(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
     """agspec.catalogue.load_instance with its errors as CLI failures (F-EXIT-CODES)."""
-    from agspec.catalogue import CatalogueError, InvalidInstanceError
+    from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError
     from agspec.catalogue import load_instance as load
 
     try:
         return load(target, index, seed)
-    except InvalidInstanceError as exc:
+    except (InvalidInstanceError, InvalidDocumentError) as exc:
         fail(str(exc), EXIT_INVALID)
     except CatalogueError as exc:
         fail(str(exc))
@@ -70,8 +70,8 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 
 @click.command("run")
 @click.argument("target", metavar="SCENARIO|INSTANCE")
-@click.option("--index", type=int, default=None, help="Suite index of the instance (default 0).")
-@click.option("--seed", type=int, default=None, help="Explicit generation seed instead of a suite index.")
+@click.option("--index", type=SEED_RANGE, default=None, help="Suite index of the instance (default 0).")
+@click.option("--seed", type=SEED_RANGE, default=None, help="Explicit generation seed instead of a suite index.")
 @click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True)
 @click.option("--horizon", type=int, default=None, help="Stop earlier than the scenario horizon.")
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "result-v1"]), default="table", show_default=True)

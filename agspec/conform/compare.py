@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from agspec import __version__
+from agspec.formats import limits
 from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
 from agspec.ir.schemas import validate_schema
 
@@ -228,24 +229,21 @@ def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
 
 
 class ReproError(ValueError):
-    """A reproducer file cannot be used (usage error, exit 2)."""
+    """A reproducer file cannot be used: ``exit_code`` 2 when it cannot be read, 1 when its content is
+    invalid (F-EXIT-CODES)."""
+
+    def __init__(self, message: str, exit_code: int = 1) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 def load_reproducer(path: str | Path) -> dict[str, Any]:
     """Read and check a reproducer file (F-REPRO); errors name the file and the offending field."""
     path = Path(path)
-    from agspec.conform.protocol import loads
-
-    try:
-        data = loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ReproError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ReproError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ReproError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
-    except ValueError as exc:  # NaN / Infinity, nested too deeply
-        raise ReproError(f"{path}: not JSON: {exc}") from None
+    try:  # F-LIMITS: bounded, located reading
+        data = limits.load_json(path)
+    except limits.InputError as exc:
+        raise ReproError(str(exc), exc.exit_code) from None
     if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
         raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
     inst = data.get("instance")

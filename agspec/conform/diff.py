@@ -29,7 +29,6 @@ instances — each scenario's recipes and profile on a 1..3 x 2..4 grid (:func:`
 from __future__ import annotations
 
 import copy
-import json
 import random
 import time
 from dataclasses import dataclass, field
@@ -40,7 +39,7 @@ from hypothesis import HealthCheck, Phase, find, settings
 from hypothesis import strategies as st
 from hypothesis.errors import NoSuchExample
 
-from agspec.catalogue import load_scenario_bundle
+from agspec.catalogue import load_scenario_bundle, read_instance_file
 from agspec.conform.compare import Divergence, generalize
 from agspec.conform.driver import (
     ImplementationFailure,
@@ -54,6 +53,7 @@ from agspec.conform.driver import (
 )
 from agspec.conform.impl import ImplSpecError, make_impl
 from agspec.conform.policies import ControllerPolicy, GenePolicy, ScriptPolicy
+from agspec.formats import limits
 from agspec.formats.actions import is_idle
 from agspec.ir.instance import make_instance
 from agspec.ir.schemas import validate_schema
@@ -157,12 +157,12 @@ def small_instances(scenario: str, count: int, seed: int) -> list[Subject]:
 def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> list[Subject]:
     """Subjects for one ``--scenario`` value: an instance IR file, or a scenario (name or .ag path)
     with suite indices 0..episodes-1 plus ``small`` generated small instances."""
-
     path = Path(target)
-    if path.suffix == ".json" and path.is_file():
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if not (isinstance(data, dict) and data.get("kind") == "instance"):
-            raise ValueError(f"{target}: not an instance IR (kind must be \"instance\")")
+    if path.suffix == ".json" and path.exists():
+        # F-LIMITS bounded reading, schema and S-INSTANCE checks (CatalogueError, InvalidInstanceError)
+        data = read_instance_file(path)
+        if data is None:
+            raise limits.InputError("AG004", "not an instance IR (kind must be \"instance\")", file=target)
         return [Subject(data.get("id") or path.stem, data, (data.get("seeds") or {}).get("execution"))]
     out = catalogue_subjects(target, range(max(1, episodes)))
     if small:

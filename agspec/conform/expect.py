@@ -12,19 +12,23 @@ case never breaks the file.  Applying it (test262's lesson — skip lists rot):
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-import yaml
 
-from agspec.conform.protocol import loads, validate
+from agspec.conform.protocol import validate
+from agspec.formats import limits
 
 
 class ExpectError(ValueError):
-    """The expectations file cannot be used (usage error, exit 2)."""
+    """The expectations file cannot be used: ``exit_code`` 2 when it cannot be read, 1 when its content
+    is invalid (F-EXIT-CODES)."""
+
+    def __init__(self, message: str, exit_code: int = 1) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 @dataclass(frozen=True)
@@ -38,27 +42,12 @@ class Expected:
 
 def load_expectations(path: str | Path) -> dict[str, Expected]:
     """Read an expectations file (YAML or JSON); errors are located and never tracebacks."""
-
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ExpectError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ExpectError(f"{path}: cannot read: {exc}") from None
-    try:
-        if path.suffix == ".json":
-            data = loads(text)
-        else:
-            data = yaml.safe_load(text)
-    except json.JSONDecodeError as exc:
-        raise ExpectError(f"{path}:{exc.lineno}:{exc.colno}: not JSON: {exc.msg}") from None
-    except ValueError as exc:  # NaN / Infinity, nested too deeply
-        raise ExpectError(f"{path}: not JSON: {exc}") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else str(path)
-        raise ExpectError(f"{where}: not YAML: {getattr(exc, 'problem', None) or exc}") from None
+    try:  # F-LIMITS: bounded reading; YAML alias bombs, deep nesting and duplicate keys are refused
+        text = limits.read_text(path)
+        data = limits.parse_json(text, str(path)) if path.suffix == ".json" else limits.parse_yaml(text, str(path))
+    except limits.InputError as exc:
+        raise ExpectError(str(exc), exc.exit_code) from None
     if data is None:
         data = {}
     problems = validate("expectations", data)

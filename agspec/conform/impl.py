@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from agspec.conform import protocol
-from agspec.conform.protocol import ProtocolError, Unsupported
+from agspec.conform.protocol import ProtocolError
 from agspec.conform.serve import Server
 
 Reply = dict[str, Any]

@@ -160,12 +160,22 @@ def _recipe(ir: Mapping[str, Any]) -> list[list[str]]:
         head.append(f"raw {names(ir['raw'])}")
     head += _resources(ir.get("resources") or {})
     sections = [head]
+    # F-DSL-FMT: an XOR group is written just before the first of its alternatives, so that it stays
+    # with the operations it groups and before any operation that runs `after` it
+    groups = sorted(ir.get("xor", []) or [], key=lambda g: str(g.get("id")))
+    placed: set[int] = set()
     for op in _op_order(ir.get("operations", []) or [], ir.get("xor", []) or []):
+        here = [i for i, g in enumerate(groups) if i not in placed and op.get("id") in (g.get("alternatives") or [])]
+        if here:
+            sections.append([_xor(groups[i]) for i in here])
+            placed.update(here)
         sections.append(_operation(op))
-    xor = [f"xor {name(g.get('id'))} = " + " | ".join(name(a) for a in g.get("alternatives", []))
-           for g in sorted(ir.get("xor", []) or [], key=lambda g: str(g.get("id")))]
-    sections.append(xor)
+    sections.append([_xor(g) for i, g in enumerate(groups) if i not in placed])  # alternatives that are no operation
     return sections
+
+
+def _xor(group: Mapping[str, Any]) -> str:
+    return f"xor {name(group.get('id'))} = " + " | ".join(name(a) for a in group.get("alternatives", []))
 
 
 # --------------------------------------------------------------------------- profile

@@ -15,5 +15,7 @@ module              spec
                     and the AG2xx wording of a schema violation (F-CODES)
 ``trace``           F-TRACE: the canonical JSON line, the streaming writer and the streaming reader
 ``report``          F-REPORT: the conformance report's records, writer and reader
+``limits``          F-LIMITS: the bounded reading of every untrusted input (file type and size, UTF-8,
+                    JSON and YAML within depth/number/string/alias limits); ``jsonl`` reads through it
 ==================  =================================================================================
 """

@@ -2,8 +2,12 @@
 
 One canonical line (:func:`dumps`: sorted keys, no spaces, UTF-8, shortest float repr, no NaN), one
 streaming reader (:func:`iter_lines`: one :class:`Line` per non-blank line, a line that is not UTF-8
-or not JSON is reported, never raised) and one writer that flushes every line, so that a crash loses
+or not JSON, or breaks a limit, is reported, never raised) and one writer that flushes every line, so that a crash loses
 nothing already written.
+
+Reading is bounded (F-LIMITS, :mod:`agspec.formats.limits`): a path is checked for its type and size
+before it is opened, each line is read at most ``max_record_bytes`` at a time and parsed within the
+depth, number, string, duplicate-key and non-finite limits.
 """
 
 from __future__ import annotations
@@ -12,6 +16,9 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Callable, Iterable, Iterator, Mapping
+
+from agspec.diagnostics import Diagnostic
+from agspec.formats import limits as _limits
 
 
 def dumps(record: Mapping[str, Any], default: Callable[[Any], Any] | None = None) -> str:
@@ -66,46 +73,56 @@ def loads(text: str | bytes) -> Any:
 
 @dataclass(frozen=True)
 class Line:
-    """One non-blank line: its parsed value, or why it has none (``code`` AG002 not UTF-8, AG003 not JSON)."""
+    """One non-blank line: its parsed value, or why it has none (``code`` AG007 not UTF-8, AG003 not
+    JSON, or the F-LIMITS code of the limit it breaks; ``hint`` says how to raise that limit)."""
 
     lineno: int
     value: Any = None
     code: str | None = None
     error: str | None = None
     col: int | None = None
+    hint: str | None = None
 
     @property
     def ok(self) -> bool:
         return self.code is None
 
+    def diagnostic(self, file: str | None) -> Diagnostic:
+        """The problem of a line that is not ``ok``, located in ``file``."""
+        return Diagnostic(str(self.code), str(self.error), file=file, line=self.lineno, col=self.col, hint=self.hint)
 
-def _decode(lineno: int, raw: str | bytes) -> Line:
-    if isinstance(raw, bytes):
-        try:
-            raw = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            return Line(lineno, code="AG002", error=f"line is not UTF-8 text (byte {raw[exc.start]:#04x})",
-                        col=exc.start + 1)
-    try:
-        return Line(lineno, loads(raw))
-    except json.JSONDecodeError as exc:
-        return Line(lineno, code="AG003", error=f"not valid JSON: {exc.msg}", col=exc.colno)
-    except ValueError as exc:  # NaN / Infinity, nested too deeply
-        return Line(lineno, code="AG003", error=f"not valid JSON: {exc}")
+    def describe(self, file: str | None) -> str:
+        """``file:line:col: error[code]: message (how to raise the limit)``, like a limits error."""
+        text = self.diagnostic(file).header()
+        return f"{text} ({self.hint})" if self.hint else text
+
+
+def _line(lineno: int, value: Any) -> Line:
+    if isinstance(value, _limits.InputError):
+        return Line(lineno, code=value.code, error=value.message, col=value.col, hint=value.hint)
+    return Line(lineno, value)
 
 
 def iter_lines(source: str | Path | Iterable[str | bytes]) -> Iterator[Line]:
     """The non-blank lines of a file (a path, read in binary and streamed) or of an iterable of lines.
 
-    Opening a path may raise ``OSError``; the caller reports it.
+    A path that is missing, not a regular file or over the size limit raises
+    :class:`agspec.formats.limits.InputError` (its ``exit_code`` says usage or invalid input); the
+    caller reports it.
     """
     if isinstance(source, (str, Path)):
-        with open(source, "rb") as fh:
-            yield from iter_lines(fh)
+        for lineno, value in _limits.iter_json_lines(source):
+            yield _line(lineno, value)
         return
+    bounds = _limits.Limits.from_env()
     for lineno, raw in enumerate(source, start=1):
-        if raw.strip():
-            yield _decode(lineno, raw)
+        if not raw.strip():
+            continue
+        try:  # lines already in memory: their size was bounded when they were read
+            text = _limits.decode(raw) if isinstance(raw, bytes) else raw
+            yield Line(lineno, _limits.parse_json(text, None, bounds))
+        except _limits.InputError as exc:
+            yield _line(lineno, exc)
 
 
 def read_values(source: str | Path | Iterable[str | bytes]) -> list[Any]:

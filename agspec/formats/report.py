@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats import limits
 from agspec.formats.jsonl import LineWriter, iter_lines
 from agspec.formats.schemas import validate
 
@@ -51,15 +52,18 @@ def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:
     records: list[dict[str, Any]] = []
     problems: list[str] = []
     path = Path(path)
-    for line in iter_lines(path):
-        if not line.ok:
-            problems.append(f"{path}:{line.lineno}: {line.error}")
-            continue
-        rec = line.value
-        for p in validate("report", rec):
-            problems.append(f"{path}:{line.lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
-        if isinstance(rec, dict):
-            records.append(rec)
+    try:  # F-LIMITS: bounded, located reading (file type and size, then each record)
+        for line in iter_lines(path):
+            if not line.ok:
+                problems.append(line.describe(str(path)))
+                continue
+            rec = line.value
+            for p in validate("report", rec):
+                problems.append(f"{path}:{line.lineno}: {p.pointer or '/'}: {p.message} [{p.code}]")
+            if isinstance(rec, dict):
+                records.append(rec)
+    except limits.InputError as exc:
+        return [], [str(exc)]
     if not records or records[0].get("type") != "header":
         problems.append(f"{path}:1: the report does not start with a header")
     if not records or records[-1].get("type") != "footer":

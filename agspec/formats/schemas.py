@@ -182,7 +182,8 @@ def issues(error: ValidationError) -> list[Issue]:
         want = error.validator_value
         wants = [want] if isinstance(want, str) else list(want)
         words = " or ".join(_JSON_TYPES.get(w, w) for w in wants)
-        return [Issue("AG202", f"{where} must be {words}, found {json_type(instance)} {show_value(instance)}", ptr)]
+        found = json_type(instance) if isinstance(instance, (dict, list)) else f"{json_type(instance)} {show_value(instance)}"
+        return [Issue("AG202", f"{where} must be {words}, found {found}", ptr)]
     if kw in _RANGE:
         bound = error.validator_value
         text = {

@@ -24,8 +24,8 @@ in c (R-COMPLETION: the rightmost, then topmost, input-bound member).
 
 Codes: AG450 raw token unpickable, AG451 output point unreachable, AG452 no handoff chain to the
 output, AG453 no admissible candidate, AG454 inputs can never meet, AG455 resource capacity;
-warnings AG456 geometrically unusable handoff pairs, AG457 team sizes never admissible, AG458
-analysis truncated.  kmin > k_topo is AG421 of
+AG459 products heavier than the payload; warnings AG456 geometrically unusable handoff pairs, AG457
+team sizes never admissible, AG458 analysis truncated.  kmin > k_topo is AG421 of
 :func:`agspec.ir.validate.validate_scenario`; recipes with AG3xx errors are skipped here.
 """
 
@@ -568,4 +568,25 @@ def validate_scenario_full(scenario_ir: Mapping[str, Any], resolver: V.Resolver)
         resolved = resolve_profile(profile, ref.get("variant"))
     except InstanceError:
         return issues
-    return issues + check_realizability(scenario, recipes, resolved)
+    return issues + check_payload(scenario, resolved) + check_realizability(scenario, recipes, resolved)
+
+
+def check_payload(scenario: Mapping[str, Any], profile: Mapping[str, Any]) -> list[Issue]:
+    """S-FEASIBILITY 7 (AG459): every product the scenario can draw is light enough to be handed off.
+
+    A handoff needs ``mass_z <= payload`` (R-HANDOFF) and material always changes hands at least once
+    (raw material enters at the left column, products leave at the right one, S-GRID: ``cols >= 2``),
+    so a product heavier than the payload is never delivered; the candidate condition
+    ``mass_z / b <= payload`` (R-CANDIDATES) is then implied for every ``b >= 1``.
+    """
+    mass = _dict(scenario.get("products")).get("mass")
+    payload = profile.get("payload")
+    if not (isinstance(mass, list) and len(mass) == 2 and all(_is_num(m) for m in mass) and _is_num(payload)):
+        return []
+    low, high = mass
+    if high <= payload:
+        return []
+    which = "no product" if low > payload else f"no product heavier than {payload}"
+    return [_err("AG459", f"product mass {low}..{high} exceeds the robots' payload {payload}: {which} can ever be "
+                 "handed off, so it is never delivered", "/products/mass",
+                 f"keep `products mass` at most {payload}, or raise the profile's `payload`")]

@@ -257,6 +257,10 @@ def realize(
 # --------------------------------------------------------------------------- identity
 
 
+# S-SEEDS, RES-SEED-BASES-DEFAULT: the official generation and execution seed bases
+DEFAULT_SEED_BASES = (10000, 20000)
+
+
 def _check_seed(name: str, value: Any) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise InstanceError(f"{name} must be an integer, got {value!r}")
@@ -302,15 +306,9 @@ def make_instance(
 
     derived_gen = derived_exec = None
     if index is not None:
-        if "generation_seed_base" not in suite or "execution_seed_base" not in suite:
-            if generation_seed is None:
-                raise InstanceError(
-                    f"scenario `{scenario.get('id')}` declares no suite seed bases, so index {index} "
-                    "has no seed; give an explicit generation seed"
-                )
-        else:
-            derived_gen = int(suite["generation_seed_base"]) + index
-            derived_exec = int(suite["execution_seed_base"]) + index
+        # RES-SEED-BASES-DEFAULT: a scenario without suite seed bases uses the official ones
+        derived_gen = int(suite.get("generation_seed_base", DEFAULT_SEED_BASES[0])) + index
+        derived_exec = int(suite.get("execution_seed_base", DEFAULT_SEED_BASES[1])) + index
     if generation_seed is None and derived_gen is None:
         raise InstanceError("give a suite index or a generation seed")
     gen = generation_seed if generation_seed is not None else derived_gen

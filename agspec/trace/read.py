@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from agspec.diagnostics import Diagnostic
+from agspec.formats import limits
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.schemas import validate
 from agspec.ir.fingerprint import fingerprint
@@ -51,10 +52,10 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
     records: list[dict[str, Any]] = []
     lines: list[int] = []
     schema_errors = 0
-    try:
+    try:  # F-LIMITS: file type and size first, then each record within the record limits
         for line in iter_lines(path):
             if not line.ok:
-                diags.append(_diag(line.code, line.error, file, line.lineno, col=line.col))
+                diags.append(line.diagnostic(file))
                 continue
             rec = line.value
             if not isinstance(rec, dict):
@@ -66,13 +67,10 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
                     schema_errors += 1
             records.append(rec)
             lines.append(line.lineno)
-    except FileNotFoundError:
-        return [], [_diag("AG001", f"file not found: {file}", file, None)]
-    except OSError as exc:
-        diag = _diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None)
-        if not lines and not diags:  # the file could not be opened at all
-            return [], [diag]
-        diags.append(diag)
+    except limits.InputError as exc:  # missing, not a regular file, over the size limit
+        return [], [exc.diagnostic()]
+    except OSError as exc:  # a read error after the file was opened
+        diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
     diags += _structure(records, lines, file)
     diags.sort(key=lambda d: (d.line or 0))
     return records, diags

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import copy
 import io
-import json
 from pathlib import Path
 from typing import Any, Mapping
 
+from agspec.formats import limits
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.pointer import iter_differences, show
 from agspec.formats.trace import TraceWriter, read_records
@@ -40,17 +40,15 @@ class ReportError(ValueError):
 
 def read_report(path: Path) -> list[dict[str, Any]]:
     records = []
-    try:
+    try:  # F-LIMITS: bounded, located reading; a missing or special file is a usage error
         for line in iter_lines(path):
-            if line.code == "AG002":
-                raise ReportError(f"{path}: cannot read: line {line.lineno}: {line.error}", usage=True)
             if not line.ok:
-                raise ReportError(f"{path}:{line.lineno}:{line.col}: {line.error}")
+                raise ReportError(line.describe(str(path)))
             if not isinstance(line.value, dict):
                 raise ReportError(f"{path}:{line.lineno}: a report record must be a JSON object")
             records.append(line.value)
-    except FileNotFoundError:
-        raise ReportError(f"{path}: file not found", usage=True) from None
+    except limits.InputError as exc:
+        raise ReportError(str(exc), usage=exc.exit_code == limits.EXIT_USAGE) from None
     except OSError as exc:
         raise ReportError(f"{path}: cannot read: {exc}", usage=True) from None
     if not records or records[0].get("type") != "header" or not str(records[0].get("format", "")).startswith(
@@ -87,9 +85,10 @@ def load_reproducer(case: Mapping[str, Any], report: Path) -> dict[str, Any]:
     for p in candidates:
         if p.is_file():
             try:
-                data = json.loads(p.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-                raise ReportError(f"{p}: cannot read the reproducer: {exc}", usage=True) from None
+                data = limits.load_json(p)
+            except limits.InputError as exc:
+                raise ReportError(f"cannot read the reproducer: {exc}", usage=exc.exit_code == limits.EXIT_USAGE
+                                  ) from None
             if not isinstance(data, dict) or not isinstance(data.get("actions"), list) or not isinstance(
                     data.get("instance"), dict):
                 raise ReportError(f"{p}: not a reproducer (F-REPRO: instance, execution_seed, actions)")

@@ -3,7 +3,7 @@ invariant headings, and the suite's self-lint."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Iterable, Sequence
 
 from agspec.conform.cases.expectations import check_expectations

@@ -16,6 +16,7 @@ from jsonschema.exceptions import best_match
 
 from agspec.catalogue import load_scenario_bundle
 from agspec.conform.cases.model import CASE_GLOBS, Case, Located, SuiteError, _show_path
+from agspec.formats import limits
 from agspec.formats.actions import IDLE, IllegalAction, resolve
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.pointer import MISSING, PointerError, escape, show
@@ -150,10 +151,10 @@ def load_case_file(path: Path | str, root: Path | str | None = None) -> list[Cas
     path = Path(path)
     root = Path(root) if root is not None else conformance_dir()
     file = _show_path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SuiteError(Located(file, None, f"cannot read case file: {exc}")) from None
+    try:  # F-LIMITS: bounded reading of a suite file
+        text = limits.read_text(path)
+    except limits.InputError as exc:
+        raise SuiteError(Located(file, exc.line, f"cannot read case file: {exc.message}")) from None
     doc, lines = _compose(text, file)
     problems = _schema_problems(doc, lines, file)
     if problems:
@@ -184,7 +185,7 @@ def _catalogue_instance(scenario: str, index: int) -> str:
 
 @lru_cache(maxsize=64)
 def _file_json(path: str, mtime: float) -> str:
-    return Path(path).read_text(encoding="utf-8")
+    return limits.read_text(path)  # F-LIMITS: a case may name any file
 
 
 def _resolve_instance(ref: Any, root: Path, file: str, line: int | None) -> dict[str, Any]:
@@ -192,11 +193,11 @@ def _resolve_instance(ref: Any, root: Path, file: str, line: int | None) -> dict
         path = (root / ref).resolve()
         try:
             text = _file_json(str(path), path.stat().st_mtime)
-            data = json.loads(text)
+            data = limits.parse_json(text, str(path))
         except OSError as exc:
             raise SuiteError(Located(file, line, f"instance file {ref!r} (under {_show_path(root)}): {exc.strerror}")) from None
-        except json.JSONDecodeError as exc:
-            raise SuiteError(Located(file, line, f"instance file {ref!r}: not JSON: {exc}")) from None
+        except limits.InputError as exc:
+            raise SuiteError(Located(file, line, f"instance file {ref!r}: {exc}")) from None
         if not isinstance(data, dict) or data.get("kind") != "instance":
             raise SuiteError(Located(file, line, f"instance file {ref!r} does not hold an instance IR"))
         return data
@@ -305,7 +306,7 @@ def _build_case(entry: dict[str, Any], lines: dict[str, int], path: Path, file: 
             header, ticks, trace_digest = _read_trace(str(tpath), tpath.stat().st_mtime)
         except OSError as exc:
             raise SuiteError(Located(file, _line_for(lines, "/driver/trace"), f"trace {driver['trace']!r}: {exc.strerror}")) from None
-        except (ValueError, KeyError, TypeError) as exc:
+        except (ValueError, KeyError, TypeError, limits.InputError) as exc:  # F-LIMITS: a special or huge file
             raise SuiteError(Located(file, _line_for(lines, "/driver/trace"), f"trace {driver['trace']!r}: {exc}")) from None
 
         if fingerprint(header["instance"]) != fingerprint(instance):

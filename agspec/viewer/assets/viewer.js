@@ -273,7 +273,7 @@
       const held = [];
       for (const id in st.robots || {}) { const h = st.robots[id].holding; if (h !== null && h !== undefined) held.push([String(h), id]); }
       for (const item in items) if (!held.some((x) => x[0] === item && x[1] === items[item]) && (st.robots || {})[items[item]]) held.push([item, items[item]]);
-      const copies = {};
+      const copies = {}, placed = [];
       for (const [item, holder] of held) {
         // keyed by item (a second copy gets "#2"), so an item changing holder moves (CSS transition)
         copies[item] = (copies[item] || 0) + 1;
@@ -293,7 +293,16 @@
         node.setAttribute("data-holder", holder);
         node.lastChild.textContent = "item " + item + " held by " + holder + (consistent ? "" : " (state.items says " + (items[item] || "nothing") + ")");
         node.setAttribute("class", "item" + (hl.items.has(item) || hl.robots.has(holder) ? " diff" : "") + (consistent ? "" : " inconsistent"));
-        node.style.transform = "translate(" + (+this.X(p[0]) + 8) + "px," + (+this.Y(p[1]) + 10 + (n - 1) * 16) + "px)";
+        placed.push({ node: node, x: +this.X(p[0]) + 8, y: +this.Y(p[1]) + 10 + (n - 1) * 16 });
+      }
+      // on dense grids end-effectors converge on one site: move a label down until it overlaps no other
+      // (labels are 32 x 15 px, centred on their anchor), in a stable order so frames do not jitter
+      placed.sort((a, b) => a.y - b.y || a.x - b.x);
+      const boxes = [];
+      for (const q of placed) {
+        while (boxes.some((b) => Math.abs(b.x - q.x) < 33 && Math.abs(b.y - q.y) < 16)) q.y += 16;
+        boxes.push(q);
+        q.node.style.transform = "translate(" + q.x + "px," + q.y + "px)";
       }
       for (const key in this.itemEls) if (!seen.has(key)) { this.itemEls[key].remove(); delete this.itemEls[key]; }
     }
@@ -393,6 +402,11 @@
     return { robots: robots, items: items };
   }
 
+  function tickFromHash(hash) {
+    const m = /(?:^#|&)t=(\d{1,9})(?:&|$)/.exec(hash || "");
+    return m ? +m[1] : null;
+  }
+
   const viewer = {
     t: 0, T: 0, selected: null, timer: null, panes: [],
     init() {
@@ -433,7 +447,10 @@
         else if (e.key === " ") { this.timer ? this.pause() : this.play(); e.preventDefault(); }
       });
       this.legend();
-      this.go(DATA.mode === "diff" ? Math.min(DATA.focus || 0, this.T) : 0);
+      // the page opens at the tick named in the URL (`page.html#t=120`) and keeps the URL at the shown tick
+      window.addEventListener("hashchange", () => { const h = tickFromHash(location.hash); if (h !== null && h !== this.t) this.go(h); });
+      const start = tickFromHash(location.hash);
+      this.go(start !== null ? start : DATA.mode === "diff" ? Math.min(DATA.focus || 0, this.T) : 0);
     },
     play() {
       if (this.t >= this.T) this.go(0);
@@ -450,6 +467,9 @@
     go(t) {
       t = Math.max(0, Math.min(this.T, Math.round(t)));
       this.t = t;
+      if (tickFromHash(location.hash) !== t) {
+        try { history.replaceState(null, "", "#t=" + t); } catch (e) { /* a sandboxed page keeps its URL */ }
+      }
       let hl = null;
       if (DATA.mode === "diff") {
         const ptrs = (DATA.differences || {})[String(t)] || [];

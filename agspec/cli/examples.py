@@ -1,0 +1,69 @@
+"""Real examples that end every command's ``--help`` (attached as the click epilog).
+
+Kept in one table so that tests/test_help_examples.py can parse every one of them (and run the quick
+ones from a clone of the repository); paths are relative to the top of a clone.
+"""
+
+from __future__ import annotations
+
+import click
+
+# command path (space-separated) -> example command lines, without the leading `agspec`
+EXAMPLES: dict[str, tuple[str, ...]] = {
+    "validate": ("validate catalogue/recipes/pair_assembly.ag", "validate catalogue/ --format json"),
+    "compile": ("compile catalogue/recipes/pair_assembly.ag --pretty",),
+    "fmt": ("fmt catalogue/recipes/pair_assembly.ag", "fmt --check catalogue/scenarios/flow-easy.ag"),
+    "instance": ("instance coalition-medium --index 3 -o inst.json",),
+    "fingerprint": ("fingerprint catalogue/recipes/pair_assembly.ag coalition-medium",),
+    "export": ("export flow-easy --index 0",),
+    "catalogue": ("catalogue list", "catalogue verify --catalogue catalogue"),
+    "catalogue list": ("catalogue list --format json",),
+    "catalogue verify": ("catalogue verify", "catalogue verify --catalogue ./catalogue"),
+    "catalogue lock": ("catalogue lock --lock /tmp/lock.json",),
+    "run": ("run coalition-medium --controller greedy", "run flow-easy --index 2 --trace flow.jsonl --horizon 50"),
+    "evaluate": ("evaluate --scenario flow-easy --controller greedy --indices 1000-1004",),
+    "diff": ("diff --impl reference --impl 'python sim.py --agspec' --scenario flow-easy --ticks 40",),
+    "conform": ("conform --impl reference -x", "conform --impl './sim --agspec' --report report.jsonl"),
+    "serve": ("serve --no-observations",),
+    "check": ("check flow.jsonl", "check flow.jsonl --format json"),
+    "trace": ("trace validate flow.jsonl",),
+    "trace validate": ("trace validate flow.jsonl --format json",),
+    "render": ("render flow.jsonl -o replay.html",
+               "render --impl reference --scenario coalition-medium --ticks 60 -o replay.html"),
+}
+
+
+def epilog(path: str) -> str | None:
+    lines = EXAMPLES.get(path)
+    if not lines:
+        return None
+    # "\b" keeps click from re-wrapping the block
+    return "\b\nExamples:\n" + "\n".join(f"  agspec {line}" for line in lines)
+
+
+def attach(command: click.Command, path: str) -> click.Command:
+    """Give ``command`` (and the subcommands of a group) its examples, unless it already has an epilog."""
+    if command.epilog is None:
+        command.epilog = epilog(path)
+    if isinstance(command, click.Group):
+        for name, sub in command.commands.items():
+            attach(sub, f"{path} {name}")
+    return command
+
+
+def all_commands(root: click.Group, ctx: click.Context) -> dict[str, click.Command]:
+    """Every command path of the CLI -> its command (groups included)."""
+    out: dict[str, click.Command] = {}
+
+    def walk(group: click.Group, prefix: str) -> None:
+        for name in group.list_commands(ctx):
+            cmd = group.get_command(ctx, name)
+            if cmd is None:
+                continue
+            path = f"{prefix}{name}"
+            out[path] = cmd
+            if isinstance(cmd, click.Group):
+                walk(cmd, path + " ")
+
+    walk(root, "")
+    return out
