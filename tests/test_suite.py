@@ -313,3 +313,15 @@ def test_traces_are_small_and_complete():
         head, foot = json.loads(lines[0]), json.loads(lines[-1])
         assert head["type"] == "header" and foot["type"] == "footer" and foot["complete"]
         assert foot["ticks"] == len(lines) - 2
+
+
+def test_alias_bomb_in_a_case_file_is_refused_before_it_is_built(tmp_path):
+    # F-LIMITS: the case loader composes YAML for its line map; an alias bomb must be refused on the
+    # node graph (a billion-laughs document expands to 9**9 nodes), never constructed
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    path = _write(tmp_path, "\n".join(lines) + "\n")
+    with pytest.raises(SuiteError) as info:
+        load_suite(path.parent.parent)
+    assert "max_yaml_nodes" in str(info.value) or "YAML nodes" in str(info.value)
+    assert str(info.value).startswith(str(path)) or "bad.yaml" in str(info.value)

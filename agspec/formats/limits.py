@@ -387,7 +387,7 @@ def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None)
         raise _limit_error("max_depth", f"nesting deeper than {limits.max_depth} levels", limits, file=file) from None
     if node is None:
         return None
-    _check_nodes(node, file, limits)
+    check_yaml_nodes(node, file, limits)
     try:
         value = yaml.SafeLoader(text).construct_document(node)
     except (yaml.YAMLError, ValueError, OverflowError) as exc:
@@ -400,7 +400,7 @@ def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None)
     return value
 
 
-def _check_nodes(root: yaml.Node, file: str | None, limits: Limits) -> None:
+def check_yaml_nodes(root: yaml.Node, file: str | None, limits: Limits) -> None:
     """Expanded size, depth, scalar length, duplicate keys and alias cycles of a composed YAML graph."""
     def at(node: yaml.Node) -> dict[str, Any]:
         return {"file": file, "line": node.start_mark.line + 1, "col": node.start_mark.column + 1}

@@ -43,8 +43,14 @@ def _compose(text: str, file: str) -> tuple[Any, dict[str, int]]:
         line = mark.line + 1 if mark is not None else None
         problem = getattr(exc, "problem", None) or str(exc)
         raise SuiteError(Located(file, line, f"not valid YAML: {problem}")) from None
+    except RecursionError:
+        raise SuiteError(Located(file, None, "nesting too deep (F-LIMITS)")) from None
     if node is None:
         raise SuiteError(Located(file, 1, "empty case file"))
+    try:  # F-LIMITS: alias bombs, depth, long scalars and duplicate keys refused before anything is built
+        limits.check_yaml_nodes(node, file, limits.Limits.from_env())
+    except limits.InputError as exc:
+        raise SuiteError(Located(file, exc.line, str(exc))) from None
     lines: dict[str, int] = {}
     constructor = yaml.SafeLoader("")
 
