@@ -203,20 +203,25 @@ class _Builder:
             self.at(pointer, min((f.span for f in first.values())))
         return out
 
-    def operations(self, fields: list[Field]) -> list[dict[str, Any]]:
+    def unique_named(self, fields: list[Field], code: str, what: str, hint: str, verb: str) -> list[Field]:
+        """The fields with a first-seen name, sorted by name; every repeated name is an error ``code``."""
         first: dict[str, Field] = {}
         kept = []
         for f in fields:
             name = f.name.value
             if name in first:
                 prev = first[name]
-                self.error("AG301", f"duplicate operation id `{name}`", f.name.span,
-                           hint="give every operation of a recipe its own id",
-                           notes=(f"first defined at {prev.name.span[0]}:{prev.name.span[1]}",))
+                self.error(code, f"duplicate {what} `{name}`", f.name.span, hint=hint,
+                           notes=(f"first {verb} at {prev.name.span[0]}:{prev.name.span[1]}",))
                 continue
             first[name] = f
             kept.append(f)
         kept.sort(key=lambda f: f.name.value)
+        return kept
+
+    def operations(self, fields: list[Field]) -> list[dict[str, Any]]:
+        kept = self.unique_named(fields, "AG301", "operation id", "give every operation of a recipe its own id",
+                                 "defined")
         if kept:
             self.at("/operations", _span(kept[0].key_span, kept[0].name.span))
         return [self.operation(f"/operations/{i}", f) for i, f in enumerate(kept)]
@@ -284,19 +289,7 @@ class _Builder:
         return out
 
     def xor_groups(self, fields: list[Field]) -> list[dict[str, Any]]:
-        first: dict[str, Field] = {}
-        kept = []
-        for f in fields:
-            name = f.name.value
-            if name in first:
-                prev = first[name]
-                self.error("AG325", f"duplicate XOR group `{name}`", f.name.span,
-                           hint="declare each XOR group once",
-                           notes=(f"first declared at {prev.name.span[0]}:{prev.name.span[1]}",))
-                continue
-            first[name] = f
-            kept.append(f)
-        kept.sort(key=lambda f: f.name.value)
+        kept = self.unique_named(fields, "AG325", "XOR group", "declare each XOR group once", "declared")
         if kept:
             self.at("/xor", kept[0].span)
         out = []
