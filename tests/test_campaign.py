@@ -259,7 +259,7 @@ def _diff(*extra: str, cwd: Path, env: dict[str, str] | None = None) -> subproce
     return subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=600, env=env)
 
 
-def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, CAMP-ORDER
+def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, RES-CAMP-DIFF
     mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
     outputs, saved = [], []
     for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
@@ -280,7 +280,7 @@ def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path
     assert len([name for name in saved[0] if name.endswith(".yaml")]) == len(report["findings"])
 
 
-def test_diff_stops_at_the_first_divergent_instance_on_every_executor(tmp_path):  # CAMP-ORDER
+def test_diff_stops_at_the_first_divergent_instance_on_every_executor(tmp_path):  # CAMP-ORDER, RES-CAMP-DIFF
     mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
     outputs = []
     for n, extra in enumerate(CAMPAIGN_RUNS[:2]):

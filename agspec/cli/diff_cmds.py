@@ -111,7 +111,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         for subject, cause in exploration.errors:  # CAMP-FAULTS: reported, never dropped
             log(f"  {subject.label:<48} [red]ERROR[/] {cause}")
         if not here and (exploration.findings or (hypothesis_examples and (keep_going or not findings))):
-            pair = _open_pair(impls, impl_timeout)  # shrinking and hypothesis run here (CAMP-IDENTICAL)
+            pair = _open_pair(impls, impl_timeout)  # shrinking and hypothesis run here (RES-CAMP-DIFF)
             here = True
         if hypothesis_examples and (keep_going or not findings):
             log(f"  hypothesis: up to {hypothesis_examples} joint-action sequences of <= {min(ticks, 40)} ticks …")

@@ -253,8 +253,8 @@ def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequ
     ``pair``; otherwise on ``executor``'s workers, each opening its own pair from ``specs`` (the two
     ``--impl`` values, A then B) and ``timeout``.  Results are consumed in subject order
     (CAMP-ORDER), so the exploration — and the first finding — is the same on every executor; the
-    items computed beyond the first finding are discarded.  A subject whose worker failed is in
-    ``errors`` with the cause (CAMP-FAULTS).
+    items computed beyond the first finding are discarded (RES-CAMP-DIFF).  A subject whose worker
+    failed is in ``errors`` with the cause (CAMP-FAULTS).
     """
     result = Exploration()
     start = time.perf_counter()
@@ -346,6 +346,7 @@ def describe_action(action: Any) -> str:
 __all__ = [
     "Divergence", "Pair", "Run", "Subject", "Finding", "Exploration", "ControllerPolicy", "ScriptPolicy",
     "GenePolicy", "lockstep", "replay", "explore", "hypothesis_search", "load_subjects", "catalogue_subjects",
-    "small_instances", "Plan", "explore_subject", "inline", "non_idle", "describe_action", "generalize", "ImplementationFailure", "open_pair",
+    "small_instances", "Plan", "explore_subject", "inline", "non_idle", "describe_action", "generalize",
+    "ImplementationFailure", "open_pair",
     "JointAction", "is_idle",
 ]
