@@ -306,3 +306,52 @@ def test_diff_worker_dying_mid_item_is_retried_then_reported(kind, tmp_path):  #
     [error] = report["errors"]
     assert error["instance"] == "mut-duo-1x2-flat"
     assert "worker died 2 time(s)" in error["error"]  # 1 + 1 retry, then reported with the cause
+
+
+def _sims_of(tag: str) -> list[int]:
+    out = []
+    for proc in Path("/proc").iterdir():
+        if proc.name.isdigit():
+            try:
+                argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")
+                if argv[1:2] == [tag] and _alive(int(proc.name)):  # `python <tag>`: a simulator
+                    out.append(int(proc.name))
+            except OSError:
+                pass
+    return out
+
+
+def test_diff_interrupt_stops_every_simulator_the_workers_started(tmp_path):  # CAMP-CANCEL
+    # the unmutated adapter under a command line unique to this test; it outlives the end of its
+    # input, so only the worker's teardown (which stops the process group) ends it
+    wrapper = tmp_path / "wrapped_sim.py"
+    wrapper.write_text(textwrap.dedent(f"""
+        import runpy, sys, time
+        sys.path.insert(0, {str(MUTANTS)!r})
+        sys.argv = [{str(MUTANTS / 'sim.py')!r}]
+        try:
+            runpy.run_path(sys.argv[0], run_name="__main__")
+        finally:
+            time.sleep(600)
+    """))
+    proc = subprocess.Popen(["agspec", "diff", "--impl", "reference", "--impl", f"{sys.executable} {wrapper}",
+                             "--scenario", "flow-easy", "--episodes", "40", "--small", "0", "--ticks", "200",
+                             "-j", "2", "--out", str(tmp_path / "out")],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stderr.readline()  # the banner: the run has started
+        deadline = time.monotonic() + 60
+        while len(_sims_of(str(wrapper))) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        sims = _sims_of(str(wrapper))
+        assert len(sims) == 2  # one simulator per worker (the driver's pair is closed meanwhile)
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=60)
+        deadline = time.monotonic() + 10
+        while _sims_of(str(wrapper)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _sims_of(str(wrapper)) and proc.returncode != 0
+    finally:
+        proc.kill()
+        for pid in _sims_of(str(wrapper)):
+            os.kill(pid, signal.SIGKILL)
