@@ -142,7 +142,8 @@ CAMPAIGN_RUNS = [["-j", "1"], ["-j", "2", "--dispatch-seed", "5"], ["--executor"
 
 
 # RES-CAMP-TIMING: time, host and how the run was executed may differ; nothing else
-TIMING_AND_HOST = ("wall_time", "command", "workers", "host", "duration_s", "started_at", "jobs", "executor")
+TIMING_AND_HOST = ("wall_time", "command", "workers", "host", "duration_s", "seconds", "started_at", "jobs",
+                   "executor")
 
 
 def _without_timing(doc):
@@ -243,3 +244,114 @@ def test_check_over_a_directory_is_identical_on_every_executor(tmp_path):  # CAM
 def test_campaign_options_are_checked(args, message):
     result = _agspec(*EVALUATE, *args)
     assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr
+
+
+MUTANTS = TESTS / "mutants"
+DIFF_SUBJECTS = [str(MUTANTS / "instances" / f"{name}.json") for name in ("pair-1x2-flat", "solo-1x2-flat",
+                                                                           "duo-1x2-flat")]
+
+
+def _diff(*extra: str, cwd: Path, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    args = ["agspec", "diff", "--ticks", "20", "--controller", "greedy", "--controller", "random",
+            "--shrink-budget", "30", "--out", "out", "--format", "json", *extra]
+    for subject in DIFF_SUBJECTS:
+        args += ["--scenario", subject]
+    return subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=600, env=env)
+
+
+def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, RES-CAMP-DIFF
+    mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
+    outputs, saved = [], []
+    for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
+        cwd = tmp_path / f"run-{n}"
+        cwd.mkdir()
+        result = _diff("--impl", "reference", "--impl", mutant, "--keep-going", *extra, cwd=cwd)
+        assert result.returncode == 1, result.stderr  # the mutant diverges
+        outputs.append(_without_timing(json.loads(result.stdout)))
+        saved.append({str(p.relative_to(cwd)): p.read_bytes() for p in sorted((cwd / "out").rglob("*")) if p.is_file()})
+    assert outputs[1:] == outputs[:1] * 2 and saved[1:] == saved[:1] * 2
+    report = outputs[0]
+    assert report["errors"] == [] and report["compared"]["episodes"] == 6  # 3 instances x 2 controllers
+    assert [(f["instance"], f["policy"]) for f in report["findings"]] == [  # in item order
+        ("mut-pair-1x2-flat", "greedy(seed=0)"), ("mut-solo-1x2-flat", "greedy(seed=1)"),
+        ("mut-solo-1x2-flat", "random(seed=1)"), ("mut-duo-1x2-flat", "greedy(seed=2)"),
+        ("mut-duo-1x2-flat", "random(seed=2)")]
+    assert all(f["shrunk"]["reproduces"] for f in report["findings"])
+    assert len([name for name in saved[0] if name.endswith(".yaml")]) == len(report["findings"])
+
+
+def test_diff_stops_at_the_first_divergent_instance_on_every_executor(tmp_path):  # CAMP-ORDER, RES-CAMP-DIFF
+    mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
+    outputs = []
+    for n, extra in enumerate(CAMPAIGN_RUNS[:2]):
+        cwd = tmp_path / f"run-{n}"
+        cwd.mkdir()
+        result = _diff("--impl", "reference", "--impl", mutant, "--shrink-budget", "0", *extra, cwd=cwd)
+        assert result.returncode == 1, result.stderr
+        outputs.append(_without_timing(json.loads(result.stdout)))
+    assert outputs[1] == outputs[0] and len(outputs[0]["findings"]) == 1
+
+
+@pytest.mark.parametrize("kind", ["local", "ray"])
+def test_diff_worker_dying_mid_item_is_retried_then_reported(kind, tmp_path):  # CAMP-RETRY, CAMP-FAULTS
+    env = dict(os.environ, AGSPEC_TEST_DIE_ONCE="mut-solo-1x2-flat", AGSPEC_TEST_DIE_ALWAYS="mut-duo-1x2-flat",
+               AGSPEC_TEST_DIE_MARKERS=str(tmp_path))
+    dying = f"python:{TESTS / 'fakes' / 'dying_sim.py'}:make"
+    result = _diff("--impl", "reference", "--impl", dying, "--executor", kind, "-j", "2", "--retries", "1",
+                   cwd=tmp_path, env=env)
+    assert result.returncode == 3 and result.stdout, result.stderr  # CAMP-FAULTS: a harness error, exit 3
+    report = json.loads(result.stdout)
+    assert (tmp_path / "died-mut-solo-1x2-flat").exists()  # it did die once, and the retry compared it
+    assert report["compared"]["episodes"] == 4 and report["findings"] == []
+    [error] = report["errors"]
+    assert error["instance"] == "mut-duo-1x2-flat"
+    assert "worker died 2 time(s)" in error["error"]  # 1 + 1 retry, then reported with the cause
+
+
+def _sims_of(tag: str) -> list[int]:
+    out = []
+    for proc in Path("/proc").iterdir():
+        if proc.name.isdigit():
+            try:
+                argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")
+                if argv[1:2] == [tag] and _alive(int(proc.name)):  # `python <tag>`: a simulator
+                    out.append(int(proc.name))
+            except OSError:
+                pass
+    return out
+
+
+def test_diff_interrupt_stops_every_simulator_the_workers_started(tmp_path):  # CAMP-CANCEL
+    # the unmutated adapter under a command line unique to this test; it outlives the end of its
+    # input, so only the worker's teardown (which stops the process group) ends it
+    wrapper = tmp_path / "wrapped_sim.py"
+    wrapper.write_text(textwrap.dedent(f"""
+        import runpy, sys, time
+        sys.path.insert(0, {str(MUTANTS)!r})
+        sys.argv = [{str(MUTANTS / 'sim.py')!r}]
+        try:
+            runpy.run_path(sys.argv[0], run_name="__main__")
+        finally:
+            time.sleep(600)
+    """))
+    proc = subprocess.Popen(["agspec", "diff", "--impl", "reference", "--impl", f"{sys.executable} {wrapper}",
+                             "--scenario", "flow-easy", "--episodes", "40", "--small", "0", "--ticks", "200",
+                             "-j", "2", "--out", str(tmp_path / "out")],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stderr.readline()  # the banner: the run has started
+        deadline = time.monotonic() + 60
+        while len(_sims_of(str(wrapper))) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        sims = _sims_of(str(wrapper))
+        assert len(sims) == 2  # one simulator per worker (the driver's pair is closed meanwhile)
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=60)
+        deadline = time.monotonic() + 10
+        while _sims_of(str(wrapper)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _sims_of(str(wrapper)) and proc.returncode != 0
+    finally:
+        proc.kill()
+        for pid in _sims_of(str(wrapper)):
+            os.kill(pid, signal.SIGKILL)

@@ -63,7 +63,25 @@ def connect(spec: ExecutorSpec) -> bool:
             ray.init(address=spec.address, **kwargs)
     except Exception as exc:  # unreachable cluster, bad address, version mismatch
         raise ExecutorError(f"cannot start or reach Ray at {spec.address or 'a new local Ray'}: {describe(exc)}")
+    _cluster_errors_to_stderr()
     return True
+
+
+def _cluster_errors_to_stderr() -> None:
+    """Ray prints the cluster's error messages (e.g. "a worker died") on the driver's *stdout*, which
+    would corrupt a command's ``--format json`` output; the driver reports those deaths itself
+    (CAMP-FAULTS), so Ray's own lines are sent to stderr.  Ray has no option for this: the hook is
+    its module function, replaced once and only if this Ray version has it."""
+    module = getattr(getattr(ray, "_private", None), "worker", None)
+    original = getattr(module, "print_to_stdstream", None)
+    if original is None or getattr(original, "agspec_to_stderr", False):
+        return
+
+    def to_stderr(data: dict[str, Any], *args: Any, **kwargs: Any) -> None:
+        original({**data, "is_err": True}, *args, **kwargs)
+
+    to_stderr.agspec_to_stderr = True  # type: ignore[attr-defined]
+    module.print_to_stdstream = to_stderr
 
 
 class RayBackend:

@@ -8,8 +8,10 @@ from typing import Any
 
 import click
 
+from agspec.campaign.executor import ExecutorSpec
 from agspec.catalogue import InvalidDocumentError, InvalidInstanceError
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import executor_options
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
 from agspec.conform.teardown import exit_on_signals
@@ -19,7 +21,9 @@ DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
 
 
-@click.command("diff")
+@click.command("diff", epilog="""\b
+Example: a simulator under test against the reference on 8 suite indices per scenario, 2 workers:
+  agspec diff --impl reference --impl "python my_sim.py" --episodes 8 -j 2 --format json""")
 @click.option("--impl", "impls", multiple=True, required=True, metavar="SPEC",
               help="An implementation (give exactly two): `reference`, `python:pkg.module:factory` or a command line.")
 @click.option("--scenario", "scenarios", multiple=True, metavar="S",
@@ -48,8 +52,12 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
               help="While shrinking, accept any divergence (default: the same compared part and pointer shape).")
 @click.option("--keep-going", is_flag=True, help="Run every episode and report every divergent episode.")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None,
+              help="Workers, each with its own pair of implementations (default: 1 locally; with --executor ray "
+                   "every CPU).")
+@executor_options
 def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis_examples, out_dir, impl_timeout,
-         shrink_budget, shrink_seconds, any_divergence, keep_going, fmt) -> None:
+         shrink_budget, shrink_seconds, any_divergence, keep_going, fmt, jobs, campaign: ExecutorSpec) -> None:
     """Drive two implementations in lockstep on generated episodes; shrink and save the first divergence.
 
     Actions come from seeded random and greedy controllers acting on the driver's observations (the
@@ -58,6 +66,11 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     the end flag are compared every tick. Exit 0: no divergence; 1: divergent; 3: an implementation
     failed (crash, timeout, protocol) or nothing was compared; 5: the divergence does not reproduce
     on replay (nondeterministic implementation); 2: usage.
+
+    One instance (its episodes with every controller) is one campaign item: with -j N or --executor
+    ray the instances run on workers, each with its own pair of implementations, and the output and
+    the saved counterexample are the same as with -j 1 (CAMP-IDENTICAL). Shrinking and the
+    hypothesis search run in this process.
     """
     from agspec.conform import diff as D
 
@@ -78,12 +91,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
             fail(f"--scenario {target}: {exc}", EXIT_USAGE)
     # SIGTERM / SIGHUP raise SystemExit, so pair.close() below kills both process groups (F-PROTOCOL-TEARDOWN)
     click.get_current_context().with_resource(exit_on_signals())
-    try:
-        pair = D.open_pair(impls[0], impls[1], timeout=impl_timeout)
-    except D.ImplementationFailure as exc:
-        fail(exc.message, EXIT_HARNESS)
-    except ValueError as exc:
-        fail(str(exc), EXIT_USAGE)
+    pair = _open_pair(impls, impl_timeout)
 
     start = time.perf_counter()
     findings: list[D.Finding] = []
@@ -91,6 +99,9 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
     # F-CONFORM-LEVELS: what the pair can compare is what both declare
     proven = [p for p in LEVEL_PARTS if p in pair.parts()]
     report["level"] = level_name(proven)
+    here = D.inline(campaign)
+    if not here:  # the workers open their own pairs; the driver's is reopened for shrinking (CAMP-EXECUTOR)
+        pair.close()
     try:
         log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
             f"{pair.expected_side} ({pair.expected_label}); {len(subjects)} instance(s)")
@@ -100,9 +111,14 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
             log(f"  {label:<48} {run.ticks:>4} ticks  {status}")
 
         exploration = D.explore(pair, subjects, controllers=controllers or ("random", "greedy"), seed=seed,
-                                ticks=ticks, on_episode=on_episode,
-                                first_only=not keep_going)
+                                ticks=ticks, on_episode=on_episode, first_only=not keep_going, executor=campaign,
+                                specs=(impls[0], impls[1]), timeout=impl_timeout)
         findings += exploration.findings
+        for subject, cause in exploration.errors:  # CAMP-FAULTS: reported, never dropped
+            log(f"  {subject.label:<48} [red]ERROR[/] {cause}")
+        if not here and (exploration.findings or (hypothesis_examples and (keep_going or not findings))):
+            pair = _open_pair(impls, impl_timeout)  # shrinking and hypothesis run here (RES-CAMP-DIFF)
+            here = True
         if hypothesis_examples and (keep_going or not findings):
             log(f"  hypothesis: up to {hypothesis_examples} joint-action sequences of <= {min(ticks, 40)} ticks …")
             found, tried = D.hypothesis_search(pair, subjects, examples=hypothesis_examples, ticks=min(ticks, 40),
@@ -113,19 +129,21 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
                 findings.append(found)
         report["compared"] = {"episodes": exploration.episodes, "ticks": exploration.ticks,
                               "states": exploration.states, "hypothesis_examples": exploration.hypothesis_examples}
+        report["errors"] = [{"instance": subject.label, "error": cause} for subject, cause in exploration.errors]
         report["findings"] = []
         for finding in findings:
             entry = _report_finding(pair, finding, out_dir, shrink_budget, shrink_seconds, any_divergence, log, quiet)
             report["findings"].append(entry)
     finally:
-        pair.close()
+        if here:
+            pair.close()
     report["seconds"] = round(time.perf_counter() - start, 3)
 
     vacuous = (report["compared"]["ticks"] == 0 and report["compared"]["hypothesis_examples"] == 0 and not findings) \
         or not proven
     errors = [f for f in findings if f.run.divergence.where == "error"]
     flaky = [e for e in report.get("findings", []) if e.get("nondeterministic")]
-    code = EXIT_HARNESS if (errors or vacuous) else (EXIT_INVALID if findings else EXIT_OK)
+    code = EXIT_HARNESS if (errors or report["errors"] or vacuous) else (EXIT_INVALID if findings else EXIT_OK)
     if flaky and not vacuous:
         code = EXIT_NONDETERMINISTIC
     report["exit"] = code
@@ -141,11 +159,25 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         elif flaky:
             stdout.print(summary + "[bold red]nondeterministic implementation[/]: the divergence does not reproduce "
                          "when the same actions are replayed (see the replays above)")
+        elif report["errors"]:
+            stdout.print(summary + f"[red]{len(report['errors'])} instance(s) not compared[/]: their worker failed "
+                         f"(see above); {len(findings)} divergent episode(s)")
         elif not findings:
             stdout.print(summary + "[green]no divergence[/]")
         else:
             stdout.print(summary + f"[red]{len(findings)} divergent episode(s)[/]")
     raise SystemExit(code)
+
+
+def _open_pair(impls, timeout: float):
+    from agspec.conform import diff as D
+
+    try:
+        return D.open_pair(impls[0], impls[1], timeout=timeout)
+    except D.ImplementationFailure as exc:
+        fail(exc.message, EXIT_HARNESS)
+    except ValueError as exc:
+        fail(str(exc), EXIT_USAGE)
 
 
 def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, any_divergence: bool, log,

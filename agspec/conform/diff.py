@@ -31,7 +31,7 @@ from __future__ import annotations
 import copy
 import random
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
@@ -39,6 +39,7 @@ from hypothesis import HealthCheck, Phase, find, settings
 from hypothesis import strategies as st
 from hypothesis.errors import NoSuchExample
 
+from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.catalogue import load_scenario_bundle, read_instance_file
 from agspec.conform.compare import Divergence, generalize
 from agspec.conform.driver import (
@@ -191,31 +192,96 @@ class Exploration:
     states: int = 0
     hypothesis_examples: int = 0
     findings: list[Finding] = field(default_factory=list)
+    errors: list[tuple[Subject, str]] = field(default_factory=list)  # subjects whose worker failed (CAMP-FAULTS)
     seconds: float = 0.0
 
 
-def explore(pair: Pair, subjects: Sequence[Subject], *, controllers: Sequence[str] = ("random", "greedy"),
+@dataclass(frozen=True)
+class Plan:
+    """What every exploration item needs, shipped to the workers once per run (CAMP-SHIP-ONCE)."""
+
+    subjects: tuple[Subject, ...]
+    controllers: tuple[str, ...]
+    seed: int
+    ticks: int
+    first_only: bool
+
+
+def explore_subject(pair: Pair, plan: Plan, k: int) -> list[tuple[str, Run]]:
+    """One campaign item: the episodes of subject ``k``, one per controller (controller seed = ``seed``
+    + ``k``), stopping at its first divergence when ``first_only``.  The runs travel back to the
+    driver without the live parts (the exception object and the last replies), which the driver
+    never reads, so a run is the same whether it was computed here or on a worker (CAMP-IDENTICAL)."""
+    subject = plan.subjects[k]
+    out: list[tuple[str, Run]] = []
+    for controller in plan.controllers:
+        policy = ControllerPolicy(controller, plan.seed + k)
+        run = lockstep(pair, subject.instance, subject.execution_seed, policy, plan.ticks)
+        out.append((policy.name, replace(run, failure=None, replies=(None, None))))
+        if run.divergence is not None and plan.first_only:
+            break
+    return out
+
+
+def _explore_item(context: tuple[Pair, Plan], k: int) -> list[tuple[str, Run]]:
+    pair, plan = context
+    return explore_subject(pair, plan, k)
+
+
+def _open_worker_pair(shared: tuple[str, str, float, Plan]) -> tuple[Pair, Plan]:
+    """Per worker: its own implementation pair, opened once and used for all its items (CAMP-EXECUTOR)."""
+    spec_a, spec_b, timeout, plan = shared
+    return open_pair(spec_a, spec_b, timeout=timeout), plan
+
+
+def _close_worker_pair(context: tuple[Pair, Plan]) -> None:
+    context[0].close()  # stops both of the worker's simulators (CAMP-CANCEL)
+
+
+def inline(executor: ExecutorSpec | None) -> bool:
+    """Whether the items run in this process, on the driver's own pair (``local`` with one worker)."""
+    return executor is None or (executor.kind == "local" and (executor.jobs or 1) <= 1)
+
+
+def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequence[str] = ("random", "greedy"),
             seed: int = 0, ticks: int = 60, on_episode: Callable[[str, Run], None] | None = None,
-            first_only: bool = True) -> Exploration:
-    """One episode per subject and controller (controller seed = ``seed`` + the subject's position);
-    stops at the first finding when ``first_only``."""
+            first_only: bool = True, executor: ExecutorSpec | None = None, specs: tuple[str, str] = ("", ""),
+            timeout: float = 5.0) -> Exploration:
+    """One episode per subject and controller; stops at the first finding when ``first_only``.
+
+    One subject is one campaign item (spec chapter 14).  With one local worker the items run here on
+    ``pair``; otherwise on ``executor``'s workers, each opening its own pair from ``specs`` (the two
+    ``--impl`` values, A then B) and ``timeout``.  Results are consumed in subject order
+    (CAMP-ORDER), so the exploration — and the first finding — is the same on every executor; the
+    items computed beyond the first finding are discarded (RES-CAMP-DIFF).  A subject whose worker
+    failed is in ``errors`` with the cause (CAMP-FAULTS).
+    """
     result = Exploration()
     start = time.perf_counter()
-    for k, subject in enumerate(subjects):
-        for controller in controllers:
-            policy = ControllerPolicy(controller, seed + k)
-            run = lockstep(pair, subject.instance, subject.execution_seed, policy, ticks)
-            result.episodes += 1
-            result.ticks += run.ticks
-            result.states += run.states
-            if on_episode:
-                on_episode(f"{subject.label} {policy.name}", run)
-            if run.divergence is not None:
-                result.findings.append(Finding(subject, policy.name, run))
-                if first_only:
-                    break
-        if first_only and result.findings:
-            break
+    plan = Plan(tuple(subjects), tuple(controllers), seed, ticks, first_only)
+    if inline(executor):
+        task = Task(_explore_item, (pair, plan))
+    else:
+        task = Task(_explore_item, (specs[0], specs[1], timeout, plan), _open_worker_pair, _close_worker_pair)
+    outcomes = run_ordered(task, list(range(len(subjects))), executor)
+    try:
+        for k, outcome in outcomes:
+            subject = subjects[k]
+            if not isinstance(outcome, Done):
+                result.errors.append((subject, f"worker failed: {outcome.message()}"))
+                continue
+            for name, run in outcome.value:
+                result.episodes += 1
+                result.ticks += run.ticks
+                result.states += run.states
+                if on_episode:
+                    on_episode(f"{subject.label} {name}", run)
+                if run.divergence is not None:
+                    result.findings.append(Finding(subject, name, run))
+            if first_only and result.findings:
+                break
+    finally:
+        outcomes.close()  # the first finding, an error or Ctrl-C: cancel the rest, stop the workers (CAMP-CANCEL)
     result.seconds = time.perf_counter() - start
     return result
 
@@ -280,6 +346,7 @@ def describe_action(action: Any) -> str:
 __all__ = [
     "Divergence", "Pair", "Run", "Subject", "Finding", "Exploration", "ControllerPolicy", "ScriptPolicy",
     "GenePolicy", "lockstep", "replay", "explore", "hypothesis_search", "load_subjects", "catalogue_subjects",
-    "small_instances", "non_idle", "describe_action", "generalize", "ImplementationFailure", "open_pair",
+    "small_instances", "Plan", "explore_subject", "inline", "non_idle", "describe_action", "generalize",
+    "ImplementationFailure", "open_pair",
     "JointAction", "is_idle",
 ]
