@@ -13,6 +13,7 @@ tick + the implementation command) that ``agspec conform --replay FILE`` re-runs
 from __future__ import annotations
 
 import json
+import marshal
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,17 +58,23 @@ def is_diagnostic(pointer: str) -> bool:
     return len(tokens) >= 3 and tokens[2] in DIAGNOSTIC_FIELDS.get(tokens[0], frozenset())
 
 
-# Compact JSON text in the values' own key order: when both sides build their objects in the same order
-# (the reference and every server that follows it) equal text proves equal JSON at C speed without the
-# per-object key sort; NaN is refused (it equals nothing), so equal text never hides a difference.
-_ORDERED = json.JSONEncoder(separators=(",", ":"), allow_nan=False, check_circular=False)
+# The exact serialisation of the values as built, in their own key order (marshal format 2: no
+# back-references, so equal values give equal bytes whatever object sharing).  Equal bytes prove the
+# same types and values — a boolean is not a number, 1 is not 1.0 — so they prove equal JSON at C
+# speed without the per-object key sort, whenever both sides build their objects in the same order
+# (the reference and every server that follows it).  The one exception is NaN (equal bytes, yet NaN
+# equals nothing): bytes that may hold a non-finite float go on to the canonical JSON text, which
+# refuses NaN.
+_MARSHAL_VERSION = 2
+_NON_FINITE = re.compile(rb"g[\x00-\xff]{6}[\xf0-\xff][\x7f\xff]", re.DOTALL)  # 'g' + IEEE-754 LE, exponent all ones
 
 
-def _ordered(value: Any) -> str | None:
+def _exact(value: Any) -> bytes | None:
     try:
-        return _ORDERED.encode(value)
-    except (TypeError, ValueError, RecursionError):
+        data = marshal.dumps(value, _MARSHAL_VERSION)
+    except (ValueError, TypeError):
         return None
+    return None if _NON_FINITE.search(data) else data
 
 
 def _canonical(value: Any) -> str | None:
@@ -78,10 +85,11 @@ def _canonical(value: Any) -> str | None:
 
 
 def _same_text(e: Any, a: Any) -> bool:
-    """Equal canonical bytes: a sufficient test of JSON equality (never a necessary one — unequal text
-    goes on to the field-level :func:`iter_differences`, which alone decides a difference)."""
-    text = _ordered(e)
-    if text is not None and text == _ordered(a):
+    """Equal exact bytes, else equal canonical JSON text: a sufficient test of JSON equality, never a
+    necessary one — unequal bytes go on to the field-level :func:`iter_differences`, which alone
+    decides and locates a difference."""
+    data = _exact(e)
+    if data is not None and data == _exact(a):
         return True
     text = _canonical(e)
     return text is not None and text == _canonical(a)
