@@ -8,6 +8,7 @@ coverage table and ``agspec check``'s invariant table.
 from __future__ import annotations
 
 import sys
+import time
 from typing import Any, Mapping, Sequence
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -247,6 +248,7 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
 
 def check_trace_command(path: str, fmt: str) -> int:
     from agspec.campaign.check import diag_record, report_record
+    from agspec.cli.check_view import timing
     from agspec.conform.invariants import INVARIANT_IDS, check_trace
     from agspec.campaign.check import trace_diag, verify_whole
     from agspec.trace.read import read_trace
@@ -266,15 +268,17 @@ def check_trace_command(path: str, fmt: str) -> int:
             stderr.print(f"{path}: the trace is malformed; the invariants were not evaluated "
                          "(see `agspec trace validate`)")
         return EXIT_INVALID
+    started = time.perf_counter()
     report = check_trace(records)
+    speed = timing(report.ticks, time.perf_counter() - started)
     # F-TRACE-CHECK: the whole trace — record count against the horizon, footer metrics recomputed
     whole = verify_whole(records, path, trace_diag)
     ok = report.ok and not whole
     if fmt == "json":
-        emit_json(report_record(path, report, diags, whole))
+        emit_json({**report_record(path, report, diags, whole), "timing": speed})
         return EXIT_OK if ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
-                        f"{report.total_checks} checks evaluated")
+                        f"{report.total_checks} checks evaluated, {speed['ticks_per_s'] or 0:.0f} ticks/s")
     table.add_column("Invariant")
     table.add_column("Records", justify="right")
     table.add_column("Checks evaluated", justify="right")

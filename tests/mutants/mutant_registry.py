@@ -501,8 +501,8 @@ def rounded_support(session: Session) -> None:
 
     orig = observe.observation
 
-    def observation(state, model, cell, options, mask):
-        obs = orig(state, model, cell, options, mask)
+    def observation(state, model, cell, options, mask, views=None):
+        obs = orig(state, model, cell, options, mask, views)
         for opt in obs["operation_options"]:
             opt["support"] = round(opt["support"], 2)  # BUG: a formatting shortcut
         return obs
