@@ -11,6 +11,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+import time
 from contextlib import contextmanager
 
 import pytest
@@ -65,3 +66,23 @@ def test_a_suite_with_a_broken_case_file_is_invalid_input(tmp_path):
     (tmp_path / "cases" / "bad.yaml").write_text("a: [1, 2\n", encoding="utf-8")
     out = invoke(["conform", "--impl", "reference", "--suite", str(tmp_path)])
     assert not out.crashed and out.exit_code == 1 and "bad.yaml:2" in out.output
+
+
+@pytest.mark.parametrize("command", [
+    ["evaluate", "--scenario", "coalition-medium", "--split", "final-test", "--controller", "greedy",
+     "--format", "json"],
+    ["conform", "--impl", "agspec serve", "--no-suite", "--episodes", "2", "--ticks", "400"],
+])
+def test_an_interrupted_run_exits_130(command):
+    # F-EXIT-CODES: Ctrl-C is "interrupted" (130), not click's "Aborted!" (1); the run is long enough
+    # to be interrupted mid-campaign whatever the machine's speed
+    proc = subprocess.Popen([sys.executable, "-m", "agspec.cli.main", *command], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(4)
+        proc.send_signal(signal.SIGINT)
+        err = proc.communicate(timeout=120)[1]
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err[-500:]
+    assert not TRACEBACK.search(err)

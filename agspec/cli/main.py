@@ -44,6 +44,16 @@ class LazyGroup(click.Group):
         module, attr = target.split(":")
         return attach(getattr(importlib.import_module(module), attr), name)
 
+    def invoke(self, ctx: click.Context) -> object:
+        # F-EXIT-CODES: an interrupted run exits 130. click would turn the KeyboardInterrupt into
+        # "Aborted!" and exit 1; the commands' finally blocks have torn their simulators down by now
+        # (F-PROTOCOL-TEARDOWN).
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            stderr.print("interrupted")
+            raise SystemExit(130) from None
+
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="agspec")
