@@ -10,6 +10,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
+from agspec.resources import catalogue_dir
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -29,9 +30,10 @@ def test_catalogue_verify_names_the_copy_and_checks_another_with_catalogue(tmp_p
 
 
 def test_catalogue_verify_says_which_copy_it_checks_by_default():
+    # the copy agspec resolves: the working tree under an editable install, the wheel's copy otherwise
     res = run("catalogue", "verify")
     assert res.exit_code == 0
-    assert f"checking {ROOT / 'catalogue'}" in res.stderr and "--catalogue DIR" in res.stderr
+    assert f"checking {catalogue_dir()}" in res.stderr and "--catalogue DIR" in res.stderr
 
 
 def test_a_scenario_without_a_suite_block_runs_at_the_default_index(tmp_path):
