@@ -123,9 +123,7 @@ def serve(observations: bool, masks: bool) -> None:
 # =============================================================================================== check
 
 
-@click.command("check", epilog="""\b
-Example: check every trace of a training run on 2 local workers, with a JSON Lines report:
-  agspec check runs/ -j 2 --report check.jsonl""")
+@click.command("check")
 @click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)

@@ -21,9 +21,7 @@ DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
 
 
-@click.command("diff", epilog="""\b
-Example: a simulator under test against the reference on 8 suite indices per scenario, 2 workers:
-  agspec diff --impl reference --impl "python my_sim.py" --episodes 8 -j 2 --format json""")
+@click.command("diff")
 @click.option("--impl", "impls", multiple=True, required=True, metavar="SPEC",
               help="An implementation (give exactly two): `reference`, `python:pkg.module:factory` or a command line.")
 @click.option("--scenario", "scenarios", multiple=True, metavar="S",

@@ -12,10 +12,7 @@ from agspec.cli.run_cmds import METRICS
 FORMATS = ("markdown", "latex", "svg", "png", "pdf")
 
 
-@click.command("report", epilog="""\b
-Example: the LaTeX table and the family figure of a results bundle:
-  agspec report results.json --to latex -o table.tex
-  agspec report results.json --to svg -o families.svg""")
+@click.command("report")
 @click.argument("bundles", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--to", "to", type=click.Choice(FORMATS), default="markdown", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,

@@ -154,12 +154,7 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
 METRICS = tuple(key for key, _, _ in RUN_ROWS)
 
 
-@click.command("evaluate", epilog="""\b
-Example: your policy beside the references on coalition-medium, with a results bundle:
-  agspec evaluate --policy examples/policies/heuristic.py:make_policy --name heuristic \\
-      --scenario coalition-medium --indices 1000-1004 --out results.json
-Re-render two bundles without running anything:
-  agspec evaluate --from results.json more.json""")
+@click.command("evaluate")
 @click.argument("bundles", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--from", "from_bundles", is_flag=True,
               help="Read results bundles (the arguments) instead of or before running (F-POLICY-BUNDLE).")
