@@ -38,8 +38,11 @@ from typing import Any, Callable, Mapping
 from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
 from agspec.conform.serve import Server
+from agspec.formats import golden as golden_format
 
 Reply = dict[str, Any]
+# F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
+MATCHED: Any = type("Matched", (), {"__repr__": lambda self: "MATCHED", "__slots__": ()})()
 # on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
 MessageHook = Callable[[str, str, Any], None]
 
@@ -70,7 +73,8 @@ class Implementation:
         """Make the transport ready (spawn a process, build the adapter)."""
 
     def _exchange(self, msg: dict[str, Any], timeout: float | None) -> Any:
-        """Send ``msg`` and return the decoded reply whose seq matches (or raise ProtocolError)."""
+        """Send ``msg`` and return the reply: its line (a process) or its object (in process); raise
+        ProtocolError when there is none."""
         raise NotImplementedError
 
     def _shutdown(self) -> None:
@@ -85,7 +89,11 @@ class Implementation:
         self._seq += 1
         return self._seq
 
-    def _request(self, cmd: str, **fields: Any) -> Reply:
+    def _request(self, cmd: str, golden: tuple[str, str] | None = None, **fields: Any) -> Reply:
+        """One request and its checked reply.  With ``golden`` (the F-GOLDEN digests of the reply the
+        reference gave), a reply line whose exact text has the golden digest is :data:`MATCHED`
+        without being decoded — it is the golden reply byte for byte; any other reply is decoded
+        and checked as always."""
         msg = protocol.request(cmd, self._next_seq(), **fields)
         if self.on_message:
             self.on_message("->", cmd, msg)
@@ -95,7 +103,10 @@ class Implementation:
                 raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
         try:
             # start and load may build a whole model (interpreter start-up, instance compilation)
-            reply = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
+            raw = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
+            if golden is not None and isinstance(raw, str) and golden_format.line_digest(raw, msg["seq"]) == golden[0]:
+                return MATCHED
+            reply = self._decoded(msg, raw)
             if self.on_message:
                 self.on_message("<-", cmd, reply)
             if self.validate:
@@ -110,6 +121,23 @@ class Implementation:
             self._fail()
             raise
         return reply
+
+    def exchange(self, msg: dict[str, Any], timeout: float | None) -> Reply:
+        """Send one message and return its decoded reply (seq checked), without the protocol's reply
+        checks — for peers that speak another message set over the same transport (F-POLICY-PROTOCOL)."""
+        return self._decoded(msg, self._exchange(msg, timeout))
+
+    def _decoded(self, msg: Mapping[str, Any], raw: Any) -> Reply:
+        """The reply object of what ``_exchange`` returned: a line is decoded strictly; either must be
+        an object echoing the request's seq."""
+        if isinstance(raw, str):
+            raw = _decode(raw, msg["cmd"], self.stderr_tail)
+            if not isinstance(raw, dict):
+                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {raw!r:.80}")
+        if not isinstance(raw, dict):
+            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {raw!r:.80}")
+        _check_seq(msg, raw, self._seq)
+        return raw
 
     def _fail(self) -> None:
         """Forget the session after a failure: the next request restarts it."""
@@ -148,13 +176,13 @@ class Implementation:
         self._request("load", instance=instance)
         self._instance = instance
 
-    def reset(self, execution_seed: int | None) -> Reply:
+    def reset(self, execution_seed: int | None, golden: tuple[str, str] | None = None) -> Reply:
         self._ensure()
-        return self._request("reset", execution_seed=execution_seed)
+        return self._request("reset", golden, execution_seed=execution_seed)
 
-    def step(self, actions: Mapping[str, int]) -> Reply:
+    def step(self, actions: Mapping[str, int], golden: tuple[str, str] | None = None) -> Reply:
         self._ensure()
-        return self._request("step", actions=dict(actions))
+        return self._request("step", golden, actions=dict(actions))
 
     def close(self) -> None:
         if self._alive:
@@ -224,9 +252,6 @@ class PythonImpl(Implementation):
             except TypeError as exc:
                 raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not plain JSON: {exc}")
             reply = _decode(text, msg["cmd"], "")
-        if not isinstance(reply, dict):
-            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {reply!r:.80}")
-        _check_seq(msg, reply, self._seq)
         return reply
 
     def _shutdown(self) -> None:
@@ -393,13 +418,8 @@ class SubprocessImpl(Implementation):
                 self._lines.put(None)
                 raise self._exit_error(f"while the harness waited for the {msg['cmd']} reply")
             text = raw.decode("utf-8", "replace").strip()
-            if not text:
-                continue
-            reply = _decode(text, msg["cmd"], self.stderr_tail)
-            if not isinstance(reply, dict):
-                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {text[:80]!r}")
-            _check_seq(msg, reply, self._seq)
-            return reply
+            if text:
+                return text  # decoded and checked by _request (F-GOLDEN may match it undecoded)
 
     def _shutdown(self) -> None:
         proc, self.proc = self.proc, None

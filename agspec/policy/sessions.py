@@ -162,7 +162,7 @@ class ProcessSession:
 
         msg = {"cmd": cmd, "seq": self.proc._next_seq(), **fields}
         try:
-            reply = self.proc._exchange(msg, timeout)
+            reply = self.proc.exchange(msg, timeout)
         except ProtocolError as exc:
             self.proc._fail()
             code = "timeout" if exc.code == "timeout" else ("crash" if exc.kind == "crash" else "protocol")
@@ -190,7 +190,7 @@ class ProcessSession:
         proc = self.proc
         if proc.proc is not None and proc.proc.poll() is None:
             try:
-                proc._exchange({"cmd": "stop", "seq": proc._next_seq()}, 2.0)
+                proc.exchange({"cmd": "stop", "seq": proc._next_seq()}, 2.0)
             except Exception:
                 pass
         if proc.proc is not None and proc.proc.poll() is None:

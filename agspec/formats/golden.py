@@ -1,0 +1,130 @@
+"""Golden reference traces (F-GOLDEN): what the reference replied to one item, as digests.
+
+A golden trace records one passing lockstep run of the reference interpreter against itself: the
+joint actions the policy chose, and for the reset reply and every step reply two digests — of the
+exact protocol line the reference server sends (``text``, the ``seq`` member left out) and of the
+reply's value in the reference's own key order (``value``: marshal format 2, which keeps a boolean
+apart from a number, ``1`` apart from ``1.0``).  Replies are never stored, only their digests, so a
+golden trace of a 400-tick episode is a few hundred kilobytes whatever the observations weigh.
+
+The file is one JSON object (``schemas/golden.schema.json``); its ``digest`` is the SHA-256 of the
+canonical JSON text of the object without ``digest``, checked on every load — a file that does not
+verify is never used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import marshal
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+from agspec.formats import jsonl, limits
+
+GOLDEN_FORMAT = "agspec-golden/1"
+_MARSHAL_VERSION = 2  # no back-references: equal values give equal bytes whatever the object sharing
+_SEQ_FIRST = re.compile(r'\{"seq":(\d+),')
+# a float whose IEEE-754 exponent is all ones (NaN, infinity) inside marshal bytes: never a golden value
+_NON_FINITE = re.compile(rb"g[\x00-\xff]{6}[\xf0-\xff][\x7f\xff]", re.DOTALL)
+
+
+def _hex(data: bytes) -> str:
+    return hashlib.blake2b(data, digest_size=16).hexdigest()
+
+
+def line_digest(line: str, seq: int) -> str | None:
+    """The ``text`` digest of one protocol reply line whose first member is ``"seq": seq``, without it;
+    None when the line does not start that way (the caller then decodes it)."""
+    m = _SEQ_FIRST.match(line)
+    if m is None or int(m.group(1)) != seq:
+        return None
+    return _hex(("{" + line[m.end():]).encode("utf-8"))
+
+
+def text_digest(reply: Mapping[str, Any]) -> str:
+    """The ``text`` digest of a reply object: its protocol line (F-PROTOCOL encoding) without ``seq``."""
+    body = {k: v for k, v in reply.items() if k != "seq"}
+    return _hex(json.dumps(body, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode("utf-8"))
+
+
+def value_digest(reply: Mapping[str, Any]) -> str | None:
+    """The ``value`` digest of a decoded reply without ``seq``; None when it cannot have one (a value
+    that is not plain JSON, or a non-finite number)."""
+    try:
+        data = marshal.dumps({k: v for k, v in reply.items() if k != "seq"}, _MARSHAL_VERSION)
+    except (ValueError, TypeError):
+        return None
+    return None if _NON_FINITE.search(data) else _hex(data)
+
+
+@dataclass(frozen=True)
+class Golden:
+    """One golden trace: ``key`` (what it is the trace of), ``replies`` ((text, value) digests, the
+    reset reply first), ``actions`` (the joint action sent before each step reply) and ``summary``
+    (the counts of the passing run it was recorded from: ticks, states, compared, invariant_checks,
+    expectations, event_types)."""
+
+    key: Mapping[str, Any]
+    replies: tuple[tuple[str, str], ...]
+    actions: tuple[Mapping[str, int], ...]
+    summary: Mapping[str, Any]
+
+    def body(self) -> dict[str, Any]:
+        return {"format": GOLDEN_FORMAT, "key": dict(self.key), "replies": [list(r) for r in self.replies],
+                "actions": [dict(a) for a in self.actions], "summary": dict(self.summary)}
+
+
+class GoldenError(ValueError):
+    """A golden file that cannot be used (unreadable, malformed, or its digest does not verify)."""
+
+
+def _digest(body: Mapping[str, Any]) -> str:
+    return hashlib.sha256(jsonl.dumps(body).encode("utf-8")).hexdigest()
+
+
+def dump(golden: Golden, path: str | Path) -> None:
+    """Write ``golden`` atomically (a reader never sees half a file)."""
+    path = Path(path)
+    body = golden.body()
+    text = json.dumps({**body, "digest": _digest(body)}, separators=(",", ":"), sort_keys=True,
+                      ensure_ascii=False, allow_nan=False)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".golden-", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as out:
+            out.write(text + "\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load(path: str | Path, key: Mapping[str, Any]) -> Golden:
+    """Read and verify a golden file: bounded reading (F-LIMITS), the format, the digest over the
+    content, and the ``key`` it must be the trace of."""
+    try:
+        data = limits.load_json(Path(path))
+    except limits.InputError as exc:
+        raise GoldenError(str(exc)) from None
+    if not isinstance(data, dict) or data.get("format") != GOLDEN_FORMAT:
+        raise GoldenError(f"{path}: not a golden trace (expected \"format\": \"{GOLDEN_FORMAT}\")")
+    body = {k: v for k, v in data.items() if k != "digest"}
+    if data.get("digest") != _digest(body):
+        raise GoldenError(f"{path}: the digest does not verify (the file was changed or is damaged)")
+    if body.get("key") != dict(key):
+        raise GoldenError(f"{path}: recorded for another key")
+    replies, actions, summary = body.get("replies"), body.get("actions"), body.get("summary")
+    if (not isinstance(replies, list) or not isinstance(actions, list) or not isinstance(summary, dict)
+            or len(replies) != len(actions) + 1
+            or not all(isinstance(r, list) and len(r) == 2 and all(isinstance(d, str) for d in r) for r in replies)
+            or not all(isinstance(a, dict) and all(isinstance(v, int) for v in a.values()) for a in actions)):
+        raise GoldenError(f"{path}: malformed golden trace")
+    return Golden(dict(key), tuple((r[0], r[1]) for r in replies), tuple(actions), summary)
+
+
+__all__ = ["GOLDEN_FORMAT", "Golden", "GoldenError", "line_digest", "text_digest", "value_digest", "dump", "load"]
