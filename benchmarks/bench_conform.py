@@ -23,7 +23,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from _common import agspec_cmd, baseline_python, emit, ratio_table, timed_run
+from _common import agspec_cmd, baseline_python, ratio_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -77,19 +77,29 @@ def full_suite(args) -> None:
                 [("side", "build"), ("wall_s", "wall s"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
 
 
+def _median(values: list[float]) -> float:
+    import statistics
+
+    return statistics.median(values)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--ticks", type=int, default=400)
     ap.add_argument("--episodes", type=int, default=1)
     ap.add_argument("--scenario", action="append", default=None)
-    ap.add_argument("--impl", default="reference", help='implementation under test, e.g. "agspec serve"')
+    ap.add_argument("--impl", action="append", default=None,
+                    help='implementation under test (repeatable; default: reference and "agspec serve")')
+    ap.add_argument("--reps", type=int, default=1, help="runs per row (median)")
     ap.add_argument("--quick", action="store_true", help="2 scenarios x 40 ticks (CI smoke)")
     ap.add_argument("--full-suite", action="store_true", help="peak RSS and wall time of a default conform run")
     ap.add_argument("--baseline-python", default=None, help="Python of the baseline release's venv")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    impls = args.impl or ["reference", "agspec serve"]
     if args.quick:
         args.ticks, args.scenario = 40, args.scenario or ["coalition-medium", "flow-easy"]
+        impls = args.impl or ["reference"]
     probe = subprocess.run([*agspec_cmd(), "conform", "--help"], capture_output=True, text=True)
     if probe.returncode != 0:
         print("agspec conform is not available in this build; conformance overhead not measured")
@@ -97,28 +107,48 @@ def main() -> None:
     if args.full_suite:
         full_suite(args)
         return
+    import tempfile
+
     select = []
     if args.scenario:
         select = ["-k", " or ".join(f"e-{s}-*" for s in args.scenario)]
-    conform_cmd = [*agspec_cmd(), "conform", "--impl", args.impl, "--no-suite", "--episodes", str(args.episodes),
-                   "--ticks", str(args.ticks), "--format", "json", *select]
+    n_scen = len(args.scenario) if args.scenario else 9
+    ticks_total = n_scen * args.episodes * args.ticks
     plain_cmd = [sys.executable, "-c", PLAIN, str(args.ticks), str(args.episodes), *(args.scenario or [])]
-    plain_s, plain, plain_peak = _measure(plain_cmd)
-    conform_s, conform, conform_peak = _measure(conform_cmd)
-    rows = [
-        {"side": "plain run_episode", "wall_s": plain_s, "exit_code": plain.returncode, "peak_rss_mib": plain_peak},
-        {"side": f"agspec conform --impl {args.impl}", "wall_s": conform_s, "exit_code": conform.returncode,
-         "peak_rss_mib": conform_peak},
-    ]
+    plains = [_measure(plain_cmd) for _ in range(args.reps)]
+    plain_s, plain_peak = _median([p[0] for p in plains]), max(p[2] for p in plains)
+    rows = [{"side": "plain run_episode", "mode": "", "wall_s": plain_s, "ratio": 1.0, "ms_per_tick": 1000 * plain_s / ticks_total,
+             "exit_code": plains[0][1].returncode, "peak_rss_mib": plain_peak, "target": None}]
+    failures = {}
+    for impl in impls:
+        base = [*agspec_cmd(), "conform", "--impl", impl, "--no-suite", "--episodes", str(args.episodes),
+                "--ticks", str(args.ticks), "--format", "json", *select]
+        # F-GOLDEN: live (no cache), cold (an empty cache: the run records), warm (the recorded traces reused)
+        modes = {"live": [], "cold": [], "warm": []}
+        for _ in range(args.reps):
+            modes["live"].append(_measure([*base, "--golden-cache", "off"]))
+            with tempfile.TemporaryDirectory() as cache:
+                modes["cold"].append(_measure([*base, "--golden-cache", cache]))
+                modes["warm"].append(_measure([*base, "--golden-cache", cache]))
+        for mode, runs in modes.items():
+            wall = _median([r[0] for r in runs])
+            code = runs[0][1].returncode
+            rows.append({"side": f"conform --impl {impl}", "mode": mode, "wall_s": wall, "ratio": wall / plain_s,
+                         "ms_per_tick": 1000 * wall / ticks_total, "exit_code": code,
+                         "peak_rss_mib": max(r[2] for r in runs),
+                         "target": (1.5 if impl == "reference" else 2.0) if mode == "warm" else None})
+            if code != 0:
+                failures[f"{impl} {mode}"] = runs[0][1].stderr[-2000:]
     result = {"benchmark": "conform", "ticks": args.ticks, "episodes_per_scenario": args.episodes,
-              "scenarios": args.scenario or "all nine official", "plain_s": plain_s, "conform_s": conform_s,
-              "impl": args.impl, "ratio": conform_s / plain_s, "overhead": conform_s / plain_s - 1,
-              "target_ratio": 2.0 if args.impl != "reference" else 1.5,
-              "rows": rows}
-    if conform.returncode != 0:
-        result["conform_stderr"] = conform.stderr[-2000:]
-    emit(result, rows, ("side", "wall_s", "exit_code", "peak_rss_mib"),
-         f"conform --impl {args.impl}: {conform_s / plain_s:.2f}x the wall time of the plain runs", args.json)
+              "scenarios": args.scenario or "all nine official", "reps": args.reps, "plain_s": plain_s, "rows": rows}
+    if failures:
+        result["stderr"] = failures
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return
+    ratio_table(f"conform over plain runs of the same episodes ({ticks_total} ticks; median of {args.reps})", rows,
+                [("side", "run"), ("mode", "golden"), ("wall_s", "wall s"), ("ms_per_tick", "ms/tick"),
+                 ("ratio", "ratio"), ("target", "target"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
 
 
 if __name__ == "__main__":

@@ -48,11 +48,15 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
 @click.option("--require", "require", default=None, metavar="LEVEL",
               help="Fail (exit 1) unless the run proves LEVEL: `full` or parts from events,state,observations,masks.")
 @click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
+@click.option("--golden-cache", "golden_cache", default=None, metavar="DIR|off", envvar="AGSPEC_GOLDEN_CACHE",
+              show_envvar=True, help="Golden reference traces (F-GOLDEN): reuse the reference's recorded replies "
+                                     "(default ~/.cache/agspec/golden; `off`: every item runs live).")
 @executor_options
 def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
             jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-            repro_dir: str, float_tolerance: float | None, require: str | None, campaign: ExecutorSpec) -> None:
+            repro_dir: str, float_tolerance: float | None, require: str | None, golden_cache: str | None,
+            campaign: ExecutorSpec) -> None:
     """Check an implementation against the AssemblyGrid v1 reference (F-CONFORM).
 
     Runs the conformance suite and lockstep episodes on the official catalogue; every state is
@@ -92,10 +96,13 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
                       "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
                       "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
                       "float_tolerance": float_tolerance, "require": require, "repro_dir": repro_dir}
+    from agspec.conform.golden import cache_dir
+
+    golden_dir = cache_dir(golden_cache)
     summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
-                           require=required)
+                           require=required, golden_dir=str(golden_dir) if golden_dir else None)
     if fmt == "json":
         emit_json(view.json_summary(summary))
     else:

@@ -86,7 +86,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, campaign: ExecutorSpec,
             expectations: Mapping[str, Any], stale: Sequence[str], max_fail: int | None, report_path: str | None,
             repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str,
-            require: Sequence[str] = ()):
+            require: Sequence[str] = (), golden_dir: str | None = None):
     from agspec.conform.impl import ImplSpecError, make_impl
     from agspec.conform.lockstep import Options
     from agspec.conform.runner import run
@@ -101,7 +101,7 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
             open(report_path, "a", encoding="utf-8").close()
         except OSError as exc:
             fail(f"cannot write the report {report_path}: {exc.strerror or exc}")
-    opts = Options(tolerance=tolerance, repro_dir=repro_dir, impl_spec=impl_spec)
+    opts = Options(tolerance=tolerance, repro_dir=repro_dir, impl_spec=impl_spec, golden_dir=golden_dir)
     show = fmt == "table" and sys.stderr.isatty()
     with Progress(TextColumn("[bold]conform"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),
                   TimeElapsedColumn(), console=stderr, disable=not show, transient=True) as progress:
@@ -168,6 +168,9 @@ def print_summary(summary, impl_spec: str) -> None:
                  f"{c['events']} events, {c['state']} states, {c['observations']} observations, {c['masks']} masks; "
                  f"{summary.invariant_checks} invariant checks, {summary.expectations} expectations, "
                  f"{summary.duration_s:.1f} s")
+    if summary.golden:
+        stdout.print(f"{summary.golden} of {len(summary.results)} items matched golden reference traces reply by "
+                     "reply (F-GOLDEN; --golden-cache off runs every item live)")
     for reason, n in summary.skips.items():
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:

@@ -39,6 +39,7 @@ from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
 from agspec.conform.serve import Server
 from agspec.formats import golden as golden_format
+from agspec.formats import jsonl
 
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
@@ -104,7 +105,7 @@ class Implementation:
         try:
             # start and load may build a whole model (interpreter start-up, instance compilation)
             raw = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
-            if golden is not None and isinstance(raw, str) and golden_format.line_digest(raw, msg["seq"]) == golden[0]:
+            if golden is not None and _golden_text(raw, msg["seq"]) == golden[0]:
                 return MATCHED
             reply = self._decoded(msg, raw)
             if self.on_message:
@@ -288,6 +289,19 @@ def _decode(text: str, cmd: str, stderr: str | Callable[[], str]) -> Any:
         code, why = "malformed_json", f"not JSON ({exc.msg})"
     raise ProtocolError(code, f"the {cmd} reply is malformed: {why}: {shown!r}",
                         stderr=stderr() if callable(stderr) else stderr)
+
+
+def _golden_text(raw: Any, seq: int) -> str | None:
+    """F-GOLDEN: the text digest of what ``_exchange`` returned — of the line itself, or of an in-process
+    reply's compact line when the ``fast`` encoder makes that cheaper than its value digest."""
+    if isinstance(raw, str):
+        return golden_format.line_digest(raw, seq)
+    if isinstance(raw, dict) and jsonl.orjson is not None and raw.get("seq") == seq:
+        try:
+            return golden_format.text_digest(raw)
+        except (TypeError, ValueError):
+            return None
+    return None
 
 
 def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:

@@ -24,9 +24,10 @@ import time
 import traceback
 from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Mapping
 
-from agspec.conform import compare, driver, invariants
+from agspec.conform import compare, driver, golden, invariants
 from agspec.conform.cases import mismatches
 from agspec.conform.driver import Pair
 from agspec.conform.impl import Implementation, ReferenceImpl
@@ -46,6 +47,7 @@ class Options:
     repro_dir: str | None = None
     context: int = 3  # preceding ticks shown with a divergence
     impl_spec: str = ""
+    golden_dir: str | None = None  # F-GOLDEN cache directory (None: every item runs live)
 
 
 @dataclass
@@ -65,6 +67,7 @@ class Result:
     rendered: str | None = None  # the CommonMark-style text of a failure
     skip_reason: str | None = None  # the simulator's reason when it answered `unsupported`
     event_types: set[str] = field(default_factory=set)  # of the reference's run: which rules fired
+    reference: str = "live"  # F-GOLDEN: "golden" when the replies were matched against a golden trace
 
     def record(self, outcome: str | None = None, expected: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The report line (F-REPORT) of this result."""
@@ -75,7 +78,8 @@ class Result:
             "outcome": outcome or self.outcome, "raw_outcome": self.outcome, "message": self.message,
             "duration_s": round(self.duration_s, 6), "ticks": self.ticks,
             "checks": {"states": self.states, "invariant_checks": self.invariant_checks,
-                       "expectations": self.expectations, "compared": dict(self.compared)},
+                       "expectations": self.expectations, "compared": dict(self.compared),
+                       "reference": self.reference},
         }
         if expected is not None:
             rec["expected"] = dict(expected)
@@ -106,6 +110,10 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reason:
             res.outcome, res.message = "skip", reason
             return res
+        directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) else None
+        recorded = golden.lookup(directory, item) if directory is not None else None
+        if recorded is not None and _run_golden(res, item, impl, recorded):
+            return res
         if item.controller is not None:
             policy: Any = ControllerPolicy(item.controller["name"], item.controller.get("seed"))
         else:
@@ -117,8 +125,16 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         pair = Pair(reference, impl, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
                     cache_loads=False)
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts())
+        observe = checker.observe
+        recorder = golden.Recorder(item) if directory is not None else None
+        if recorder is not None:
+            def observe(step: driver.Step) -> bool:
+                stop = checker.observe(step)
+                recorder.observe(step, res.invariant_checks)
+                return stop
+
         run = driver.lockstep(pair, item.instance, item.execution_seed, policy, item.ticks,
-                              tolerance=opts.tolerance, observer=checker.observe)
+                              tolerance=opts.tolerance, observer=observe)
         res.ticks = run.ticks
         if run.failure is not None and isinstance(run.failure.__cause__, Unsupported):
             # F-PROTOCOL-UNSUPPORTED: skipped with the simulator's reason
@@ -133,6 +149,10 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             raise RuntimeError(f"the reference refused step {run.ticks - 1} too: {run.both_failed}")
         elif run.invalid:
             raise RuntimeError(f"the item's script is invalid at {run.invalid}")
+        elif recorder is not None and res.outcome == "pass":
+            recorded = recorder.golden(res)
+            if recorded is not None:
+                golden.store(directory, recorded)
         return res
     except Unsupported as exc:
         res.outcome, res.message, res.skip_reason = "skip", f"unsupported: {exc.reason}", exc.reason
@@ -153,6 +173,35 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reference is not None:
             reference.close()
         res.duration_s = time.monotonic() - t0
+
+
+def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool:
+    """F-GOLDEN: replay ``recorded`` against ``impl``; True when that decided the item — every reply
+    had the golden digest (pass, with the recorded counts), or the implementation failed a request
+    (the error a live run reports at that request).  False: a reply differed, the item runs live."""
+    res.reference = "golden"
+    try:
+        differed = golden.replay(item, impl, recorded)
+    except (Unsupported, ProtocolError) as exc:
+        differed, tick = None, getattr(exc, "failure_tick", -1)
+        counts = golden.counts_at(recorded, tick + 1)
+        res.ticks = tick + 1
+        if isinstance(exc, Unsupported):
+            res.outcome, res.message, res.skip_reason = "skip", f"unsupported: {exc.reason}", exc.reason
+        else:
+            _protocol_error(res, item, exc, tick)
+    except Exception:
+        differed = 0
+    else:
+        if differed is None:
+            counts = golden.counts_at(recorded, len(recorded.replies))
+            res.ticks = recorded.summary["ticks"]
+    if differed is not None:
+        res.reference = "live"
+        return False
+    res.states, res.compared = counts["states"], dict(counts["compared"])
+    res.invariant_checks, res.event_types = counts["invariant_checks"], set(counts["event_types"])
+    return True
 
 
 def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> None:

@@ -107,6 +107,11 @@ class Summary:
         return sum(r.states for r, _ in self.results)
 
     @property
+    def golden(self) -> int:
+        """F-GOLDEN: items decided by matching a golden reference trace (the rest ran live)."""
+        return sum(r.reference == "golden" for r, _ in self.results)
+
+    @property
     def invariant_checks(self) -> int:
         return sum(r.invariant_checks for r, _ in self.results)
 
@@ -155,7 +160,7 @@ class Summary:
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
             "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
-            "duration_s": round(self.duration_s, 3),
+            "duration_s": round(self.duration_s, 3), "golden_items": self.golden,
             "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
             "verdict": self.verdict, "exit_code": self.exit_code,
         }

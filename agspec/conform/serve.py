@@ -21,6 +21,7 @@ from typing import IO, Any, Mapping
 
 from agspec import __version__
 from agspec.conform.protocol import PROTOCOL, encode, error_reply, loads
+from agspec.formats.jsonl import compact
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
@@ -160,7 +161,8 @@ def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, ser
         else:
             reply = server.handle(msg)
         try:
-            stdout.write(encode(reply) + "\n")
+            # the reference's own values are finite; error replies carry only text (F-PROTOCOL)
+            stdout.write(compact(reply) + "\n")
             stdout.flush()
         except (BrokenPipeError, OSError):
             return 0

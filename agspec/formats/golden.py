@@ -47,9 +47,9 @@ def line_digest(line: str, seq: int) -> str | None:
 
 
 def text_digest(reply: Mapping[str, Any]) -> str:
-    """The ``text`` digest of a reply object: its protocol line (F-PROTOCOL encoding) without ``seq``."""
-    body = {k: v for k, v in reply.items() if k != "seq"}
-    return _hex(json.dumps(body, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode("utf-8"))
+    """The ``text`` digest of a reply object: the line the reference server sends for it
+    (:func:`agspec.formats.jsonl.compact`), without ``seq``."""
+    return _hex(jsonl.compact({k: v for k, v in reply.items() if k != "seq"}).encode("utf-8"))
 
 
 def value_digest(reply: Mapping[str, Any]) -> str | None:

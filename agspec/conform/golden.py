@@ -1,0 +1,168 @@
+"""Golden reference traces for conformance items (F-GOLDEN): the reference computed once, reused.
+
+An item's golden trace (:mod:`agspec.formats.golden`) is keyed by everything the reference's replies
+depend on — the agspec source, the instance fingerprint, the execution seed, the number of ticks and
+the policy (controller and seed, or the script) — and recorded from a live run that passed with
+every reply compared (:class:`Recorder`).  A later run of the same item against an implementation
+that declares every capability (F-CONFORM-LEVELS level ``full`` with ``diagnostic_state``) is
+:func:`replay`-ed: the golden actions are sent and each reply must have the golden digest — the exact
+line for a process, the value for an in-process adapter.  When every reply does, the item passed
+with the counts recorded (RES-GOLDEN-IDENTITY: the invariants of identical replies are the
+recorded ones).  At the first reply that does not, the replay stops and the item runs live from the
+start, so a failure is always found, located and reported by the live run itself.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Mapping
+
+from agspec.conform import driver
+from agspec.conform.impl import MATCHED, Implementation, Reply
+from agspec.conform.items import Item
+from agspec.formats import golden as fmt
+from agspec.formats import jsonl
+from agspec.ir.fingerprint import fingerprint
+
+ENV = "AGSPEC_GOLDEN_CACHE"
+# the capabilities a golden replay needs: every reply part the reference sends (F-GOLDEN)
+FULL = ("privileged_state", "events", "observations", "masks", "diagnostic_state")
+
+
+def cache_dir(value: str | None = None) -> Path | None:
+    """The cache directory: ``value`` (``--golden-cache``), else $AGSPEC_GOLDEN_CACHE, else
+    ``$XDG_CACHE_HOME/agspec/golden`` (``~/.cache/agspec/golden``); ``off`` disables the cache."""
+    value = value if value is not None else os.environ.get(ENV)
+    if value is not None:
+        return None if value.strip().lower() in ("", "off", "none", "0") else Path(value).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "agspec" / "golden"
+
+
+@lru_cache(maxsize=1)
+def source_digest() -> str:
+    """SHA-256 over agspec's own source files (path and content): any change of the code that
+    computes the reference's replies makes every golden trace another key."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def key(item: Item) -> dict[str, Any]:
+    """What the reference's replies to ``item`` depend on (F-GOLDEN key)."""
+    if item.controller is not None:
+        policy: Any = {"controller": item.controller["name"], "seed": item.controller.get("seed")}
+    else:
+        policy = {"script": hashlib.sha256(jsonl.dumps({"actions": list(item.actions)}).encode()).hexdigest()}
+    return {"format": fmt.GOLDEN_FORMAT, "agspec_source": source_digest(),
+            "python": f"{sys.version_info[0]}.{sys.version_info[1]}", "instance": fingerprint(item.instance),
+            "execution_seed": item.execution_seed, "ticks": item.ticks, "policy": policy}
+
+
+def path_of(directory: Path, k: Mapping[str, Any]) -> Path:
+    name = hashlib.sha256(jsonl.dumps(k).encode()).hexdigest()
+    return directory / name[:2] / f"{name}.json"
+
+
+def eligible(item: Item, impl: Implementation, tolerance: float | None) -> bool:
+    """F-GOLDEN applies to items without expectations (catalogue episodes, replays), compared exactly,
+    against an implementation that sends every reply part and whose messages nobody else inspects."""
+    caps = impl.capabilities
+    return (item.case is None and tolerance is None and not impl.validate and impl.on_message is None
+            and all(caps.get(c, False) for c in FULL))
+
+
+def lookup(directory: Path, item: Item) -> fmt.Golden | None:
+    """The verified golden trace of ``item``, or None (absent, or a file that does not verify)."""
+    k = key(item)
+    path = path_of(directory, k)
+    if not path.is_file():
+        return None
+    try:
+        return fmt.load(path, k)
+    except fmt.GoldenError:
+        return None  # never trusted: the live run decides and records a new one
+
+
+def _same(reply: Reply, digests: tuple[str, str]) -> bool:
+    return reply is MATCHED or fmt.value_digest(reply) == digests[1]
+
+
+def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> int | None:
+    """Send the golden actions; the number of replies that had the golden digest when one did not
+    (the caller runs the item live), or None when all did.  Failures of the implementation propagate
+    (ProtocolError) with ``failure_tick`` set on the exception."""
+    tick = -1
+    try:
+        impl.load(item.instance)
+        if not _same(impl.reset(item.execution_seed, golden=golden.replies[0]), golden.replies[0]):
+            return 0
+        for tick, (joint, digests) in enumerate(zip(golden.actions, golden.replies[1:])):
+            if not _same(impl.step(joint, golden=digests), digests):
+                return tick + 1
+    except Exception as exc:
+        exc.failure_tick = tick  # type: ignore[attr-defined]
+        raise
+    return None
+
+
+def counts_at(golden: fmt.Golden, replies: int) -> dict[str, Any]:
+    """The recorded counts after ``replies`` replies (reset included) — what the live run had
+    counted when its implementation failed on the next request."""
+    s = golden.summary
+    n = max(0, min(replies, len(golden.replies)))
+    return {"states": n, "compared": {p: n for p in s["compared"]},
+            "invariant_checks": s["invariant_checks_by_reply"][n - 1] if n else 0,
+            "event_types": {t for t, first in s["event_types_from"].items() if first < n}}
+
+
+class Recorder:
+    """An observer of a live run that records its golden trace (the reference's replies as digests,
+    the joint actions, the counts after every reply); :meth:`golden` when the item passed."""
+
+    def __init__(self, item: Item):
+        self.key = key(item)
+        self.replies: list[tuple[str, str]] = []
+        self.actions: list[dict[str, int]] = []
+        self.checks: list[int] = []
+        self.event_types: dict[str, int] = {}
+        self.usable = True
+
+    def observe(self, step: driver.Step, invariant_checks: int) -> None:
+        value = fmt.value_digest(step.expected)
+        if value is None:
+            self.usable = False
+            return
+        if step.joint is not None:
+            self.actions.append({r: int(a) for r, a in step.joint.items()})
+        self.replies.append((fmt.text_digest(step.expected), value))
+        self.checks.append(invariant_checks)
+        for e in step.expected.get("events") or []:
+            if isinstance(e, dict) and isinstance(e.get("type"), str):
+                self.event_types.setdefault(e["type"], len(self.replies) - 1)
+
+    def golden(self, result: Any) -> fmt.Golden | None:
+        if not self.usable or not self.replies or len(self.replies) != len(self.actions) + 1:
+            return None
+        summary = {"ticks": result.ticks, "states": result.states, "compared": dict(result.compared),
+                   "invariant_checks": result.invariant_checks, "expectations": result.expectations,
+                   "invariant_checks_by_reply": list(self.checks), "event_types_from": dict(self.event_types)}
+        return fmt.Golden(self.key, tuple(self.replies), tuple(self.actions), summary)
+
+
+def store(directory: Path, golden: fmt.Golden) -> None:
+    """Write a golden trace into the cache; a cache that cannot be written is only slower."""
+    try:
+        fmt.dump(golden, path_of(directory, golden.key))
+    except OSError:
+        pass
+
+
+__all__ = ["ENV", "FULL", "cache_dir", "source_digest", "key", "eligible", "lookup", "replay", "counts_at",
+           "Recorder", "store"]
