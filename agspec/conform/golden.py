@@ -21,6 +21,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
 
+import networkx
+
 from agspec.conform import driver
 from agspec.conform.impl import MATCHED, Implementation, Reply
 from agspec.conform.items import Item
@@ -54,6 +56,12 @@ def source_digest() -> str:
     return h.hexdigest()
 
 
+def _dependencies() -> dict[str, str]:
+    """Versions of the libraries the reference's replies depend on: the model's graph algorithms, and
+    the JSON encoder of the digests (float spellings)."""
+    return {"networkx": networkx.__version__, "encoder": fmt.encoder()}
+
+
 def key(item: Item) -> dict[str, Any]:
     """What the reference's replies to ``item`` depend on (F-GOLDEN key)."""
     if item.controller is not None:
@@ -61,7 +69,8 @@ def key(item: Item) -> dict[str, Any]:
     else:
         policy = {"script": hashlib.sha256(jsonl.dumps({"actions": list(item.actions)}).encode()).hexdigest()}
     return {"format": fmt.GOLDEN_FORMAT, "agspec_source": source_digest(),
-            "python": f"{sys.version_info[0]}.{sys.version_info[1]}", "instance": fingerprint(item.instance),
+            "python": f"{sys.version_info[0]}.{sys.version_info[1]}", "dependencies": _dependencies(),
+            "instance": fingerprint(item.instance),
             "execution_seed": item.execution_seed, "ticks": item.ticks, "policy": policy}
 
 

@@ -3,8 +3,8 @@
 A golden trace records one passing lockstep run of the reference interpreter against itself: the
 joint actions the policy chose, and for the reset reply and every step reply two digests — of the
 exact protocol line the reference server sends (``text``, the ``seq`` member left out) and of the
-reply's value in the reference's own key order (``value``: marshal format 2, which keeps a boolean
-apart from a number, ``1`` apart from ``1.0``).  Replies are never stored, only their digests, so a
+reply's canonical JSON bytes (``value``: keys sorted, so any simulator's key order matches, while a
+boolean stays apart from a number and ``1`` apart from ``1.0``).  Replies are never stored, only their digests, so a
 golden trace of a 400-tick episode is a few hundred kilobytes whatever the observations weigh.
 
 The file is one JSON object (``schemas/golden.schema.json``); its ``digest`` is the SHA-256 of the
@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import marshal
 import os
 import re
 import tempfile
@@ -24,13 +23,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-from agspec.formats import jsonl, limits
+from agspec.formats import jsonl, limits, schemas
 
 GOLDEN_FORMAT = "agspec-golden/1"
-_MARSHAL_VERSION = 2  # no back-references: equal values give equal bytes whatever the object sharing
 _SEQ_FIRST = re.compile(r'\{"seq":(\d+),')
-# a float whose IEEE-754 exponent is all ones (NaN, infinity) inside marshal bytes: never a golden value
-_NON_FINITE = re.compile(rb"g[\x00-\xff]{6}[\xf0-\xff][\x7f\xff]", re.DOTALL)
 
 
 def _hex(data: bytes) -> str:
@@ -52,14 +48,31 @@ def text_digest(reply: Mapping[str, Any]) -> str:
     return _hex(jsonl.compact({k: v for k, v in reply.items() if k != "seq"}).encode("utf-8"))
 
 
+def canonical_bytes(value: Any) -> bytes:
+    """The canonical JSON bytes of a decoded value: object keys sorted, compact, UTF-8 — orjson's with
+    the ``fast`` extra, else ``json``'s (:func:`encoder` says which; float spellings differ)."""
+    if jsonl.orjson is not None:
+        try:
+            return jsonl.orjson.dumps(value, option=jsonl.orjson.OPT_SORT_KEYS)
+        except TypeError:
+            pass
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode()
+
+
+def encoder() -> str:
+    """Which encoder :func:`canonical_bytes` and :func:`~agspec.formats.jsonl.compact` use (part of the key)."""
+    return f"orjson/{jsonl.orjson.__version__}" if jsonl.orjson is not None else "json"
+
+
 def value_digest(reply: Mapping[str, Any]) -> str | None:
-    """The ``value`` digest of a decoded reply without ``seq``; None when it cannot have one (a value
-    that is not plain JSON, or a non-finite number)."""
+    """The ``value`` digest of a decoded reply without ``seq``: of its canonical JSON bytes, so the key
+    order of the simulator's objects does not matter while a boolean stays apart from a number and
+    ``1`` from ``1.0`` (different text).  Decoded replies never hold NaN (the strict decoder refuses
+    it); None when the value is not plain JSON."""
     try:
-        data = marshal.dumps({k: v for k, v in reply.items() if k != "seq"}, _MARSHAL_VERSION)
-    except (ValueError, TypeError):
+        return _hex(canonical_bytes({k: v for k, v in reply.items() if k != "seq"}))
+    except (TypeError, ValueError):
         return None
-    return None if _NON_FINITE.search(data) else _hex(data)
 
 
 @dataclass(frozen=True)
@@ -118,13 +131,14 @@ def load(path: str | Path, key: Mapping[str, Any]) -> Golden:
         raise GoldenError(f"{path}: the digest does not verify (the file was changed or is damaged)")
     if body.get("key") != dict(key):
         raise GoldenError(f"{path}: recorded for another key")
-    replies, actions, summary = body.get("replies"), body.get("actions"), body.get("summary")
-    if (not isinstance(replies, list) or not isinstance(actions, list) or not isinstance(summary, dict)
-            or len(replies) != len(actions) + 1
-            or not all(isinstance(r, list) and len(r) == 2 and all(isinstance(d, str) for d in r) for r in replies)
-            or not all(isinstance(a, dict) and all(isinstance(v, int) for v in a.values()) for a in actions)):
-        raise GoldenError(f"{path}: malformed golden trace")
+    problems = schemas.validate("golden", data, limit=1)
+    if problems:
+        raise GoldenError(f"{path}: not a valid golden trace: {problems[0]}")
+    replies, actions, summary = body["replies"], body["actions"], body["summary"]
+    if len(replies) != len(actions) + 1 or len(summary["invariant_checks_by_reply"]) != len(replies):
+        raise GoldenError(f"{path}: {len(replies)} replies for {len(actions)} actions")
     return Golden(dict(key), tuple((r[0], r[1]) for r in replies), tuple(actions), summary)
 
 
-__all__ = ["GOLDEN_FORMAT", "Golden", "GoldenError", "line_digest", "text_digest", "value_digest", "dump", "load"]
+__all__ = ["GOLDEN_FORMAT", "Golden", "GoldenError", "line_digest", "text_digest", "value_digest", "canonical_bytes",
+           "encoder", "dump", "load"]
