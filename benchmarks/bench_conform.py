@@ -1,6 +1,6 @@
 """Conformance overhead: `agspec conform --impl reference` over plain runs of the same episodes.
 
-Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--impl "agspec serve"] [--quick] [--json]
+Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--impl SPEC ...] [--reps N] [--quick] [--json]
         python benchmarks/bench_conform.py --full-suite [--baseline-python PY] [--json]
 
 Both sides are cold processes, so start-up is included on both:
@@ -8,11 +8,15 @@ Both sides are cold processes, so start-up is included on both:
             (F-CONFORM-EPISODES: each official scenario at index 0, greedy plus E-1 seeded random)
   plain:    the same episodes through agspec.evaluate.run_episode (what `agspec run` does), one process.
 ratio = conform / plain (targets: ≤ 1.5 for the reference in process, ≤ 2 for `--impl "agspec serve"`,
-whose per-tick protocol cost — encode, pipe, decode — is then part of the figure).  Peak memory of each is the child's max RSS.
+whose per-tick protocol cost — encode, pipe, decode — is then part of the figure; ms/tick shows it).  Peak memory of each is the child's max RSS.
 If `agspec conform` does not exist in this build, the benchmark says so and exits 0.
-``--full-suite`` instead measures one plain `agspec conform --impl reference` (suite and episodes) —
-wall time and peak RSS — for this build and, with a baseline (``--baseline-python`` or
-$AGSPEC_BASELINE_PYTHON), for the baseline release too.
+``--full-suite`` instead measures a default `agspec conform --impl reference` (suite and episodes) —
+wall time and peak RSS — for this build without golden traces, with an empty cache (cold: the
+episodes record theirs) and with that cache (warm), and with a baseline (``--baseline-python`` or
+$AGSPEC_BASELINE_PYTHON) for the baseline release too.
+The episode benchmark measures each implementation three ways (F-GOLDEN): ``live`` (--golden-cache
+off), ``cold`` (an empty cache, which the run fills) and ``warm`` (that cache): the targets are for
+the warm runs, the ones a simulator author repeats.
 """
 
 from __future__ import annotations
@@ -61,20 +65,27 @@ def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]
 
 
 def full_suite(args) -> None:
+    import tempfile
+
     conform = ["conform", "--impl", "reference", "--format", "json"]
-    sides = [("new", [*agspec_cmd(), *conform])]
+    rows = []
     baseline = baseline_python(args.baseline_python)
     if baseline:
-        sides.insert(0, ("baseline", [baseline, "-c", "from agspec.cli.main import main; main()", *conform]))
-    rows = []
-    for side, cmd in sides:
-        seconds, proc, peak = _measure(cmd)
-        rows.append({"side": side, "wall_s": seconds, "exit_code": proc.returncode, "peak_rss_mib": peak})
+        seconds, proc, peak = _measure([baseline, "-c", "from agspec.cli.main import main; main()", *conform])
+        rows.append({"side": "baseline", "golden": "", "wall_s": seconds, "exit_code": proc.returncode,
+                     "peak_rss_mib": peak})
+    with tempfile.TemporaryDirectory() as cache:
+        # F-GOLDEN: suite cases always run live; the catalogue episodes record (cold) and reuse (warm)
+        for mode, flag in (("off", "off"), ("cold", cache), ("warm", cache)):
+            seconds, proc, peak = _measure([*agspec_cmd(), *conform, "--golden-cache", flag])
+            rows.append({"side": "new", "golden": mode, "wall_s": seconds, "exit_code": proc.returncode,
+                         "peak_rss_mib": peak})
     if args.json:
         print(json.dumps({"benchmark": "conform-full-suite", "rows": rows}, indent=2))
         return
     ratio_table("agspec conform --impl reference (full suite): wall time and peak RSS", rows,
-                [("side", "build"), ("wall_s", "wall s"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
+                [("side", "build"), ("golden", "golden cache"), ("wall_s", "wall s"), ("exit_code", "exit"),
+                 ("peak_rss_mib", "peak RSS MiB")])
 
 
 def _median(values: list[float]) -> float:
