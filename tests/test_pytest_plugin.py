@@ -163,3 +163,16 @@ def test_a_vacuous_session_exits_3_and_the_level_is_stated(project):
                            "-k", "e-flow-easy-greedy", "-p", "no:cacheprovider")
     assert ok.ret == 0
     ok.stdout.fnmatch_lines(["*agspec: level proven full*"])
+
+
+def test_golden_reference_traces_in_the_plugin(project, tmp_path):
+    """F-GOLDEN: catalogue episodes record their golden traces and the next session reuses them."""
+    cache = tmp_path / "golden"
+    args = (*LOAD, "--agspec-impl", "reference", "--agspec-episodes", "1", "--agspec-ticks", "5", "-m",
+            "agspec_episode", "--agspec-golden-cache", str(cache), "-p", "no:cacheprovider")
+    first = project.runpytest(*args)
+    first.assert_outcomes(passed=9)
+    assert len(list(cache.glob("*/*.json"))) == 9
+    stamps = {p: p.stat().st_mtime_ns for p in cache.glob("*/*.json")}
+    project.runpytest(*args).assert_outcomes(passed=9)
+    assert {p: p.stat().st_mtime_ns for p in cache.glob("*/*.json")} == stamps  # reused, not re-recorded

@@ -56,6 +56,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                     help="suite root directory holding cases/ (default: agspec's conformance suite)")
     group.addoption("--agspec-timeout", metavar="S", type=float, default=5.0,
                     help="seconds per protocol request before a subprocess implementation counts as hung")
+    group.addoption("--agspec-golden-cache", metavar="DIR|off", default=None,
+                    help="golden reference traces (F-GOLDEN; default $AGSPEC_GOLDEN_CACHE or ~/.cache/agspec/golden)")
     group.addoption("--agspec-validate", action="store_true", default=False,
                     help="validate every protocol message against schemas/protocol")
 
@@ -87,11 +89,12 @@ class _State:
         from agspec.conform import expect
         from agspec.conform.cases import SuiteError, load_suite
         from agspec.conform.items import catalogue_episodes, from_case
+        from agspec.conform.golden import cache_dir
+        from agspec.conform.impl import ImplSpecError, make_impl
         from agspec.conform.lockstep import Options
 
-        from agspec.conform.impl import ImplSpecError, make_impl
-
-        self.opts = Options(impl_spec=self.spec)
+        golden_dir = cache_dir(self.config.getoption("agspec_golden_cache"))
+        self.opts = Options(impl_spec=self.spec, golden_dir=str(golden_dir) if golden_dir else None)
         cfg = self.config
         try:  # resolved now (a usage error stops the run), started by the first item
             self.impl = make_impl(self.spec, timeout=self.timeout, validate=self.validate)
