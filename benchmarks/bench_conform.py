@@ -12,7 +12,7 @@ whose per-tick protocol cost — encode, pipe, decode — is then part of the fi
 If `agspec conform` does not exist in this build, the benchmark says so and exits 0.
 ``--full-suite`` instead measures a default `agspec conform --impl reference` (suite and episodes) —
 wall time and peak RSS — for this build without golden traces, with an empty cache (cold: the
-episodes record theirs) and with that cache (warm), and with a baseline (``--baseline-python`` or
+items record theirs) and with that cache (warm), and with a baseline (``--baseline-python`` or
 $AGSPEC_BASELINE_PYTHON) for the baseline release too.
 The episode benchmark measures each implementation three ways (F-GOLDEN): ``live`` (--golden-cache
 off), ``cold`` (an empty cache, which the run fills) and ``warm`` (that cache): the targets are for
@@ -75,7 +75,7 @@ def full_suite(args) -> None:
         rows.append({"side": "baseline", "golden": "", "wall_s": seconds, "exit_code": proc.returncode,
                      "peak_rss_mib": peak})
     with tempfile.TemporaryDirectory() as cache:
-        # F-GOLDEN: suite cases always run live; the catalogue episodes record (cold) and reuse (warm)
+        # F-GOLDEN: the items record their golden traces (cold) and reuse them (warm)
         for mode, flag in (("off", "off"), ("cold", cache), ("warm", cache)):
             seconds, proc, peak = _measure([*agspec_cmd(), *conform, "--golden-cache", flag])
             rows.append({"side": "new", "golden": mode, "wall_s": seconds, "exit_code": proc.returncode,

@@ -82,6 +82,20 @@ def test_honest_implementation_passes_from_the_golden_trace_with_the_live_counts
            {k: v for k, v in warm.footer().items() if k not in ("duration_s", "golden_items")}
 
 
+def test_suite_cases_pass_from_golden_traces_with_their_expectations_counted(tmp_path):
+    from agspec.conform.cases import load_suite
+    from agspec.conform.items import from_case
+
+    items = [from_case(c) for c in load_suite()]  # every case: scripts with out-of-range actions too
+    live = run(items, "reference", None)
+    run(items, "reference", tmp_path)
+    warm = run(items, "reference", tmp_path)
+    assert warm.golden == len(items) and live.expectations > 0
+    for (a, oa), (b, ob) in zip(live.results, warm.results):
+        assert oa == ob == "pass"
+        assert stable(a.record()) == stable(b.record())
+
+
 def test_golden_file_validates_and_is_keyed_by_everything_the_reference_depends_on(tmp_path):
     item = episode("flow-easy", 12)
     run([item], "reference", tmp_path)

@@ -7,8 +7,8 @@ every reply compared (:class:`Recorder`).  A later run of the same item against 
 that declares every capability (F-CONFORM-LEVELS level ``full`` with ``diagnostic_state``) is
 :func:`replay`-ed: the golden actions are sent and each reply must have the golden digest — the exact
 line for a process, the value for an in-process adapter.  When every reply does, the item passed
-with the counts recorded (RES-GOLDEN-IDENTITY: the invariants of identical replies are the
-recorded ones).  At the first reply that does not, the replay stops and the item runs live from the
+with the counts recorded (RES-GOLDEN-IDENTITY: the invariants and expectations of identical
+replies are the recorded ones).  At the first reply that does not, the replay stops and the item runs live from the
 start, so a failure is always found, located and reported by the live run itself.
 """
 
@@ -80,10 +80,10 @@ def path_of(directory: Path, k: Mapping[str, Any]) -> Path:
 
 
 def eligible(item: Item, impl: Implementation, tolerance: float | None) -> bool:
-    """F-GOLDEN applies to items without expectations (catalogue episodes, replays), compared exactly,
-    against an implementation that sends every reply part and whose messages nobody else inspects."""
+    """F-GOLDEN applies to items compared exactly, against an implementation that sends every reply
+    part and whose messages nobody else inspects."""
     caps = impl.capabilities
-    return (item.case is None and tolerance is None and not impl.validate and impl.on_message is None
+    return (tolerance is None and not impl.validate and impl.on_message is None
             and all(caps.get(c, False) for c in FULL))
 
 
@@ -128,6 +128,7 @@ def counts_at(golden: fmt.Golden, replies: int) -> dict[str, Any]:
     n = max(0, min(replies, len(golden.replies)))
     return {"states": n, "compared": {p: n for p in s["compared"]},
             "invariant_checks": s["invariant_checks_by_reply"][n - 1] if n else 0,
+            "expectations": s["expectations_by_reply"][n - 1] if n else 0,
             "event_types": {t for t, first in s["event_types_from"].items() if first < n}}
 
 
@@ -140,10 +141,11 @@ class Recorder:
         self.replies: list[tuple[str, str]] = []
         self.actions: list[dict[str, int]] = []
         self.checks: list[int] = []
+        self.expectations: list[int] = []
         self.event_types: dict[str, int] = {}
         self.usable = True
 
-    def observe(self, step: driver.Step, invariant_checks: int) -> None:
+    def observe(self, step: driver.Step, invariant_checks: int, expectations: int) -> None:
         value = fmt.value_digest(step.expected)
         if value is None:
             self.usable = False
@@ -152,6 +154,7 @@ class Recorder:
             self.actions.append({r: int(a) for r, a in step.joint.items()})
         self.replies.append((fmt.text_digest(step.expected), value))
         self.checks.append(invariant_checks)
+        self.expectations.append(expectations)
         for e in step.expected.get("events") or []:
             if isinstance(e, dict) and isinstance(e.get("type"), str):
                 self.event_types.setdefault(e["type"], len(self.replies) - 1)
@@ -161,7 +164,8 @@ class Recorder:
             return None
         summary = {"ticks": result.ticks, "states": result.states, "compared": dict(result.compared),
                    "invariant_checks": result.invariant_checks, "expectations": result.expectations,
-                   "invariant_checks_by_reply": list(self.checks), "event_types_from": dict(self.event_types)}
+                   "invariant_checks_by_reply": list(self.checks), "expectations_by_reply": list(self.expectations),
+                   "event_types_from": dict(self.event_types)}
         return fmt.Golden(self.key, tuple(self.replies), tuple(self.actions), summary)
 
 

@@ -130,7 +130,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if recorder is not None:
             def observe(step: driver.Step) -> bool:
                 stop = checker.observe(step)
-                recorder.observe(step, res.invariant_checks)
+                recorder.observe(step, res.invariant_checks, res.expectations)
                 return stop
 
         run = driver.lockstep(pair, item.instance, item.execution_seed, policy, item.ticks,
@@ -201,6 +201,7 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
         return False
     res.states, res.compared = counts["states"], dict(counts["compared"])
     res.invariant_checks, res.event_types = counts["invariant_checks"], set(counts["event_types"])
+    res.expectations = counts["expectations"]
     return True
 
 

@@ -135,7 +135,8 @@ def load(path: str | Path, key: Mapping[str, Any]) -> Golden:
     if problems:
         raise GoldenError(f"{path}: not a valid golden trace: {problems[0]}")
     replies, actions, summary = body["replies"], body["actions"], body["summary"]
-    if len(replies) != len(actions) + 1 or len(summary["invariant_checks_by_reply"]) != len(replies):
+    if len(replies) != len(actions) + 1 or any(len(summary[k]) != len(replies)
+                                                for k in ("invariant_checks_by_reply", "expectations_by_reply")):
         raise GoldenError(f"{path}: {len(replies)} replies for {len(actions)} actions")
     return Golden(dict(key), tuple((r[0], r[1]) for r in replies), tuple(actions), summary)
 
