@@ -150,8 +150,14 @@ def main() -> None:
                          "target": (1.5 if impl == "reference" else 2.0) if mode == "warm" else None})
             if code != 0:
                 failures[f"{impl} {mode}"] = runs[0][1].stderr[-2000:]
+    # the protocol's own cost per tick (encode, pipe, decode): a process over the in-process reference
+    by = {(r["side"], r["mode"]): r["ms_per_tick"] for r in rows}
+    protocol_ms = {mode: by[("conform --impl agspec serve", mode)] - by[("conform --impl reference", mode)]
+                   for mode in ("live", "warm") if ("conform --impl agspec serve", mode) in by
+                   and ("conform --impl reference", mode) in by}
     result = {"benchmark": "conform", "ticks": args.ticks, "episodes_per_scenario": args.episodes,
-              "scenarios": args.scenario or "all nine official", "reps": args.reps, "plain_s": plain_s, "rows": rows}
+              "scenarios": args.scenario or "all nine official", "reps": args.reps, "plain_s": plain_s, "rows": rows,
+              "protocol_ms_per_tick": protocol_ms}
     if failures:
         result["stderr"] = failures
     if args.json:
@@ -160,6 +166,8 @@ def main() -> None:
     ratio_table(f"conform over plain runs of the same episodes ({ticks_total} ticks; median of {args.reps})", rows,
                 [("side", "run"), ("mode", "golden"), ("wall_s", "wall s"), ("ms_per_tick", "ms/tick"),
                  ("ratio", "ratio"), ("target", "target"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
+    for mode, ms in protocol_ms.items():
+        print(f"protocol cost per tick ({mode}; encode, pipe, decode and the process start-up = agspec serve minus in process): {ms:.2f} ms")
 
 
 if __name__ == "__main__":
