@@ -197,7 +197,7 @@ def matched_prefix(m: registry.Mutant, item: Item, cache: Path) -> int | str:
             at = golden.replay(item, impl, recorded)
         except Exception as exc:  # the mutant failed a request: the replay itself reported it
             return getattr(exc, "failure_tick", -1) + 1
-        return len(recorded.replies) if at is None else at
+        return len(recorded.replies) if at is None else at[0]
     finally:
         impl.close()
 
@@ -237,3 +237,22 @@ def test_the_golden_path_is_exercised_by_the_mutants(mutant_pairs):
     verdicts above covers the replay, not only the live fallback."""
     prefixes = [p for *_, p in mutant_pairs.values() if p != "ineligible"]
     assert sum(1 for p in prefixes if p >= 1) >= 15
+
+
+def test_a_failing_implementation_is_not_run_twice_through_the_matching_prefix(tmp_path):
+    """After the replay stops at the first differing reply, the live run goes on from there
+    (golden.Resumed): the implementation receives exactly the requests of a live run."""
+    m = registry.MUTANTS["dup-handoff"]
+    item = workload_item(m)
+    run([item], "reference", tmp_path)
+    seqs = {}
+    for label, cache in (("live", None), ("golden", tmp_path)):
+        impl = make_impl(sim_spec(m.name), timeout=timeout_for(m))
+        try:
+            summary = runner.run([item], impl.spec, opts=Options(impl_spec=impl.spec, golden_dir=cache and str(cache)),
+                                 impl=impl)
+            assert summary.results[0][1] == "fail"
+            seqs[label] = impl._seq
+        finally:
+            impl.close()
+    assert seqs["golden"] == seqs["live"]

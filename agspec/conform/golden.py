@@ -103,22 +103,62 @@ def _same(reply: Reply, digests: tuple[str, str]) -> bool:
     return reply is MATCHED or fmt.value_digest(reply) == digests[1]
 
 
-def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> int | None:
-    """Send the golden actions; the number of replies that had the golden digest when one did not
-    (the caller runs the item live), or None when all did.  Failures of the implementation propagate
-    (ProtocolError) with ``failure_tick`` set on the exception."""
+def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> tuple[int, Reply] | None:
+    """Send the golden actions; at the first reply without the golden digest, its index (0: the reset
+    reply) and the reply itself (the caller goes on live from there, :class:`Resumed`); None when
+    every reply had it.  Failures of the implementation propagate (ProtocolError) with
+    ``failure_tick`` set on the exception."""
     tick = -1
     try:
         impl.load(item.instance)
-        if not _same(impl.reset(item.execution_seed, golden=golden.replies[0]), golden.replies[0]):
-            return 0
+        reply = impl.reset(item.execution_seed, golden=golden.replies[0])
+        if not _same(reply, golden.replies[0]):
+            return 0, reply
         for tick, (joint, digests) in enumerate(zip(golden.actions, golden.replies[1:])):
-            if not _same(impl.step(joint, golden=digests), digests):
-                return tick + 1
+            reply = impl.step(joint, golden=digests)
+            if not _same(reply, digests):
+                return tick + 1, reply
     except Exception as exc:
         exc.failure_tick = tick  # type: ignore[attr-defined]
         raise
     return None
+
+
+class Resumed:
+    """The implementation as the live run sees it after a replay stopped at reply ``k`` (F-GOLDEN):
+    it already answered every request up to ``k``, so replies before ``k`` are those of ``mirror``
+    (the live reference, asked first — the implementation's had the same digests), reply ``k`` is
+    the one it sent, and later requests go to it.  Its prefix is not run a second time."""
+
+    def __init__(self, impl: Implementation, k: int, reply: Reply, mirror: Implementation):
+        self.impl, self.k, self.reply, self.mirror = impl, k, reply, mirror
+        self.spec, self.n = impl.spec, 0
+
+    @property
+    def capabilities(self) -> dict[str, bool]:
+        return self.impl.capabilities
+
+    def start(self) -> dict[str, Any]:
+        return self.impl.info
+
+    def load(self, instance: Mapping[str, Any]) -> None:
+        pass  # loaded by the replay
+
+    def _answer(self) -> Reply | None:
+        n, self.n = self.n, self.n + 1
+        if n < self.k:
+            return self.mirror.last_reply
+        return self.reply if n == self.k else None
+
+    def reset(self, execution_seed: int | None) -> Reply:
+        return self._answer()
+
+    def step(self, actions: Mapping[str, int]) -> Reply:
+        reply = self._answer()
+        return self.impl.step(actions) if reply is None else reply
+
+    def close(self) -> None:
+        pass  # the implementation belongs to the caller
 
 
 def counts_at(golden: fmt.Golden, replies: int) -> dict[str, Any]:
@@ -177,5 +217,5 @@ def store(directory: Path, golden: fmt.Golden) -> None:
         pass
 
 
-__all__ = ["ENV", "FULL", "cache_dir", "source_digest", "key", "eligible", "lookup", "replay", "counts_at",
-           "Recorder", "store"]
+__all__ = ["ENV", "FULL", "cache_dir", "source_digest", "key", "eligible", "lookup", "replay", "Resumed",
+           "counts_at", "Recorder", "store"]

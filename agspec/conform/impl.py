@@ -65,6 +65,7 @@ class Implementation:
         self._seq = 0
         self._instance: Mapping[str, Any] | None = None
         self._alive = False
+        self.last_reply: Reply | None = None
         self.restarts = 0
         self.start_timeout: float | None = None  # the start request may take longer (process start-up)
 
@@ -121,6 +122,7 @@ class Implementation:
                 exc.stderr = self.stderr_tail()
             self._fail()
             raise
+        self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
         return reply
 
     def exchange(self, msg: dict[str, Any], timeout: float | None) -> Reply:

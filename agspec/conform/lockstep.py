@@ -112,7 +112,8 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             return res
         directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) else None
         recorded = golden.lookup(directory, item) if directory is not None else None
-        if recorded is not None and _run_golden(res, item, impl, recorded):
+        resume = _run_golden(res, item, impl, recorded) if recorded is not None else None
+        if resume is True:
             return res
         if item.controller is not None:
             policy: Any = ControllerPolicy(item.controller["name"], item.controller.get("seed"))
@@ -122,7 +123,8 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         reference = ReferenceImpl(observations=bool(caps.get("observations")) or policy.observes,
                                   masks=bool(caps.get("masks")))
         reference.start()
-        pair = Pair(reference, impl, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
+        actual = impl if not resume else golden.Resumed(impl, *resume, mirror=reference)
+        pair = Pair(reference, actual, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
                     cache_loads=False)
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts())
         observe = checker.observe
@@ -175,15 +177,17 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         res.duration_s = time.monotonic() - t0
 
 
-def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool:
-    """F-GOLDEN: replay ``recorded`` against ``impl``; True when that decided the item — every reply
+def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool | tuple | None:
+    """F-GOLDEN: replay ``recorded`` against ``impl``.  True when that decided the item — every reply
     had the golden digest (pass, with the recorded counts), or the implementation failed a request
-    (the error a live run reports at that request).  False: a reply differed, the item runs live."""
+    (the error a live run reports at that request).  Otherwise the item goes on live: from the
+    reply that differed (``(index, reply)``, for :class:`golden.Resumed`), or from the start (None,
+    after an unexpected failure of the replay)."""
     res.reference = "golden"
     try:
         differed = golden.replay(item, impl, recorded)
     except (Unsupported, ProtocolError) as exc:
-        differed, tick = None, getattr(exc, "failure_tick", -1)
+        tick = getattr(exc, "failure_tick", -1)
         counts = golden.counts_at(recorded, tick + 1)
         res.ticks = tick + 1
         if isinstance(exc, Unsupported):
@@ -191,14 +195,14 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
         else:
             _protocol_error(res, item, exc, tick)
     except Exception:
-        differed = 0
-    else:
-        if differed is None:
-            counts = golden.counts_at(recorded, len(recorded.replies))
-            res.ticks = recorded.summary["ticks"]
-    if differed is not None:
         res.reference = "live"
-        return False
+        return None
+    else:
+        if differed is not None:
+            res.reference = "live"
+            return differed
+        counts = golden.counts_at(recorded, len(recorded.replies))
+        res.ticks = recorded.summary["ticks"]
     res.states, res.compared = counts["states"], dict(counts["compared"])
     res.invariant_checks, res.event_types = counts["invariant_checks"], set(counts["event_types"])
     res.expectations = counts["expectations"]
