@@ -6,10 +6,12 @@ the policy (controller and seed, or the script) — and recorded from a live run
 every reply compared (:class:`Recorder`).  A later run of the same item against an implementation
 that declares every capability (F-CONFORM-LEVELS level ``full`` with ``diagnostic_state``) is
 :func:`replay`-ed: the golden actions are sent and each reply must have the golden digest — the exact
-line for a process, the value for an in-process adapter.  When every reply does, the item passed
+line of a process, else the canonical value.  When every reply does, the item passed
 with the counts recorded (RES-GOLDEN-IDENTITY: the invariants and expectations of identical
-replies are the recorded ones).  At the first reply that does not, the replay stops and the item runs live from the
-start, so a failure is always found, located and reported by the live run itself.
+replies are the recorded ones).  At the first reply that does not, the replay stops and the item
+goes on live (:class:`Resumed`: the live reference is stepped through the prefix, whose replies the
+implementation had sent identically), so a failure is always found, located and reported by the
+live run itself.
 """
 
 from __future__ import annotations
