@@ -256,3 +256,27 @@ def test_a_failing_implementation_is_not_run_twice_through_the_matching_prefix(t
         finally:
             impl.close()
     assert seqs["golden"] == seqs["live"]
+
+
+@pytest.mark.parametrize("trace", sorted((HERE.parent / "conformance" / "traces").glob("*.jsonl")), ids=lambda p: p.stem)
+def test_only_the_remembering_invariants_keep_memory_across_records(trace):
+    """A resumed run skips every check of the known prefix but runs invariants.REMEMBERING on it: that
+    is sound only if no other invariant keeps memory across records — and those listed do."""
+    from agspec.conform import invariants
+
+    records = [r for r in invariants.read_trace(trace) if r.get("type") in ("header", "tick")]
+    ctx = invariants.Context.from_instance(records[0]["instance"])
+
+    def memory():
+        return (dict(ctx.lifetime), set(ctx.lifetime_gone), dict(ctx.gone_items))
+
+    changed = set()
+    for prev, rec in zip([None, *records[:-1]], records):
+        for inv_id, fn in invariants.INVARIANTS:
+            before = memory()
+            fn(ctx, prev, rec)
+            if memory() != before:
+                changed.add(inv_id)
+    assert changed <= set(invariants.REMEMBERING)
+    if "s00-greedy" in trace.stem:  # a long enough episode: every remembering invariant remembers
+        assert changed == set(invariants.REMEMBERING)

@@ -34,8 +34,10 @@ from __future__ import annotations
 
 from agspec.conform.invariants.checker import (
     INVARIANTS,
+    REMEMBERING,
     Report,
     check_records,
+    remember_records,
     check_trace,
     check_trace_file,
     parse_trace_text,
@@ -53,6 +55,8 @@ __all__ = [
     "INVARIANT_IDS",
     "check_trace",
     "check_records",
+    "remember_records",
+    "REMEMBERING",
     "check_trace_file",
     "read_trace",
     "parse_trace_text",

@@ -96,6 +96,19 @@ class Report:
         return "\n".join(lines)
 
 
+# The invariants with memory across records (Context.lifetime / lifetime_gone, Context.gone_items);
+# every other one is a function of the record pair alone (a guard test holds this list to that).
+REMEMBERING = ("INV-CONSERVATION", "INV-LIFETIME")
+
+
+def remember_records(ctx: Context, prev: Json | None, rec: Json) -> None:
+    """Bring the invariants' memory across records up to ``rec`` without checking the others — for a
+    record whose every check is known to hold (F-GOLDEN, RES-GOLDEN-IDENTITY)."""
+    for inv_id, fn in INVARIANTS:
+        if inv_id in REMEMBERING:
+            fn(ctx, prev, rec)
+
+
 def check_records(ctx: Context, prev: Json | None, rec: Json) -> list[Violation]:
     """All eleven invariants on one record (header: ``prev`` is None)."""
     out: list[Violation] = []
