@@ -11,7 +11,7 @@ from typing import Any
 
 import networkx as nx
 
-from agspec.formats.actions import DIRECTION_NAMES
+from agspec.formats.actions import DIRECTION_NAMES, HANDOFF0, IDLE, N_ACTIONS, RECEIVE0
 from agspec.interp import geometry
 from agspec.ir import topology, variants
 
@@ -206,6 +206,19 @@ class Model:
                      if (c[0] + di, c[1] + dj) in cells)
             for c in self.cells
         }
+
+    @cached_property
+    def direction_masks(self) -> dict[Cell, tuple[tuple[bool, ...], tuple[bool, ...]]]:
+        """The static part of O-MASK per cell: idle plus every in-grid receive slot (for an empty
+        robot) and idle plus every in-grid handoff slot (for a holding robot)."""
+        out = {}
+        for c, around in self.moore_neighbours.items():
+            receive, handoff = [False] * N_ACTIONS, [False] * N_ACTIONS
+            receive[IDLE] = handoff[IDLE] = True
+            for d, _, _ in around:
+                receive[RECEIVE0 + d] = handoff[HANDOFF0 + d] = True
+            out[c] = (tuple(receive), tuple(handoff))
+        return out
 
     @cached_property
     def plans(self) -> geometry.PlanMemo:

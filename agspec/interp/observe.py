@@ -140,19 +140,17 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
             if cand.cid == robot.supports:
                 mask[OP0 + k] = True
         return mask
-    for k in range(n_ops):
-        mask[OP0 + k] = True
     if robot.supports is not None:
+        for k in range(n_ops):
+            mask[OP0 + k] = True
         return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
-    in_grid = model.moore_neighbours[cell]
+    receive, handoff = model.direction_masks[cell]  # idle and the in-grid receive / handoff slots
     if robot.holding is None:
+        mask = list(receive)
         for k in range(len(options.picks)):
             mask[PICK0 + k] = True
-        for d, _, _ in in_grid:
-            mask[RECEIVE0 + d] = True
     else:
-        for d, _, _ in in_grid:
-            mask[HANDOFF0 + d] = True
+        mask = list(handoff)
         product = state.products[robot.holding[0]]
         spacing = float(model.profile["spacing"])
         if (
@@ -161,6 +159,8 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
             and geometry.reachable(cell, geometry.output_point(cell[0], model.cols, spacing), float(model.profile["reach"]), spacing)
         ):
             mask[DELIVER] = True
+    for k in range(n_ops):
+        mask[OP0 + k] = True
     return mask
 
 
@@ -234,8 +234,8 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
     robot = state.robots[cell]
-    around = [(direction, views.robots[nc] if views is not None else public_view(state, model, nc))
-              for _, direction, nc in model.moore_neighbours[cell]]
+    public = views.robots if views is not None else {
+        nc: public_view(state, model, nc) for _, _, nc in model.moore_neighbours[cell]}
     neighbours = [
         {
             "dir": direction,
@@ -246,7 +246,8 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
             "op": op,
             "role": role,
         }
-        for direction, (rid, held, busy, op, role) in around
+        for _, direction, nc in model.moore_neighbours[cell]
+        for rid, held, busy, op, role in (public[nc],)
     ]
     ops = []
     for cand, frac in zip(options.operations, options.supports):
@@ -264,7 +265,8 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
         "failed": False,
         "supports": robot.supports,
         "neighbours": neighbours,
-        "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks],
+        "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks]
+        if options.picks else [],
         "operation_options": ops,
         "mask": mask,
     }
