@@ -221,6 +221,13 @@ class Model:
         return out
 
     @cached_property
+    def conflict_parameters(self) -> tuple[float, float, bool]:
+        """G-CONFLICT's profile parameters: rho_conf, the clearance (homogeneous population: one for
+        all robots) and whether trajectory segments are tested (variant ``trajectory_conflicts``)."""
+        return (float(self.profile["rho_conf"]), float(self.profile["clearance"]),
+                variants.enabled("trajectory_conflicts", self.profile))
+
+    @cached_property
     def plans(self) -> geometry.PlanMemo:
         """Operation candidates' motion plans, remembered across epochs (a cache, not state)."""
         return geometry.PlanMemo(self.profile)

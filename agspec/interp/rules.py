@@ -12,7 +12,6 @@ from agspec.interp import geometry
 from agspec.interp.candidates import Candidate
 from agspec.interp.model import DIRECTIONS, Model
 from agspec.interp.state import Activity, Cell, Product, Proposal, State, cell_id
-from agspec.ir import variants
 
 Events = list[dict[str, Any]]
 
@@ -26,13 +25,12 @@ def bump(state: State, name: str, by: float = 1) -> None:
 
 def geometric_conflict(model: Model, plan_a, target_a, members_a, plan_b, target_b, members_b) -> bool:
     """G-CONFLICT between two motion plans (only when the profile checks trajectory conflicts)."""
-    clearance = float(model.profile["clearance"])  # homogeneous population: one clearance for all
-    segments = variants.enabled("trajectory_conflicts", model.profile)
-    return geometry.plans_conflict(plan_a, plan_b, float(model.profile["rho_conf"]), clearance, segments=segments)
+    rho_conf, clearance, segments = model.conflict_parameters
+    return geometry.plans_conflict(plan_a, plan_b, rho_conf, clearance, segments=segments)
 
 
 def shares_exclusive(model: Model, res_a: Iterable[str], res_b: Iterable[str]) -> bool:
-    return any(model.resource_cap(r) <= 1 for r in set(res_a) & set(res_b))
+    return any(model.resource_cap(r) <= 1 for r in frozenset(res_a).intersection(res_b))
 
 
 def exhausted(state: State, model: Model, resources: Iterable[str]) -> bool:
@@ -55,7 +53,7 @@ def blocking_cause(state: State, model: Model, members, resources, plan, target)
     members = set(members)
     geo = False
     for act in state.activities:
-        if members & set(act.members):
+        if not members.isdisjoint(act.members):
             return "robot"
         if shares_exclusive(model, resources, act.resources):
             return "resource"
