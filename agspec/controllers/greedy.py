@@ -124,6 +124,10 @@ class GreedyController:
         mask = obs["mask"]
         if obs["busy"] or not any(mask[1:]):
             return IDLE
+        return self.choose(obs)
+
+    def choose(self, obs: Obs) -> int:
+        """The choice of a robot that is free and has a legal action besides idle."""
         op = operation_choice(obs)
         if op is not None:
             return op
