@@ -233,9 +233,9 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     No global state, no remote robots, no due dates or values, no supporter identities.
     ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
-    robot = state.robots[cell]
     public = views.robots if views is not None else {
-        nc: public_view(state, model, nc) for _, _, nc in model.moore_neighbours[cell]}
+        nc: public_view(state, model, nc) for nc in (cell, *(nc for _, _, nc in model.moore_neighbours[cell]))}
+    own_id, own_held, own_busy, _, _ = public[cell]
     neighbours = [
         {
             "dir": direction,
@@ -257,13 +257,13 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
         record["support"] = frac
         ops.append(record)
     return {
-        "robot": cell_id(cell),
+        "robot": own_id,
         "t": state.t,
         "grid": [model.rows, model.cols],
-        "holding": _held(state, model, cell),
-        "busy": not robot.free(state.t),
+        "holding": None if own_held is None else dict(own_held),
+        "busy": own_busy,
         "failed": False,
-        "supports": robot.supports,
+        "supports": state.robots[cell].supports,
         "neighbours": neighbours,
         "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks]
         if options.picks else [],
