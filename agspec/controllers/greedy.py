@@ -29,10 +29,12 @@ _DIR_INDEX = {name: d for d, name in enumerate(DIRECTION_NAMES)}
 
 def operation_choice(obs: Obs) -> int | None:
     """C-GREEDY operation rule; None when the robot has no operation decision to make."""
-    mask = obs["mask"]
     options = obs["operation_options"]
-    enabled = [k for k in range(len(options)) if mask[OP0 + k]]
     pending = obs.get("supports")
+    if not options and pending is None:
+        return None  # nothing offered, nothing pending
+    mask = obs["mask"]
+    enabled = [k for k in range(len(options)) if mask[OP0 + k]]
     if pending is not None:
         pending_slot = next((k for k in enabled if options[k]["id"] == pending), None)
         if len(enabled) > 1:

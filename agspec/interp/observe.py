@@ -193,14 +193,17 @@ class EpochViews:
     """What every observation of one epoch shares, built once per epoch instead of once per observer:
     each robot's public view (what its neighbours see) and each candidate's option record."""
 
-    robots: dict[Cell, tuple[str, dict[str, Any] | None, bool, str | None, str | None]]
+    robots: dict[Cell, dict[str, Any]]
     options: dict[str, dict[str, Any]]
 
 
-def public_view(state: State, model: Model, cell: Cell) -> tuple[str, dict[str, Any] | None, bool, str | None, str | None]:
-    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels."""
+def public_view(state: State, model: Model, cell: Cell) -> dict[str, Any]:
+    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels.
+
+    The record of a neighbour entry; its direction ``dir`` is the observer's, set in each copy."""
     robot = state.robots[cell]
-    return (cell_id(cell), _held(state, model, cell), not robot.free(state.t), robot.op_label, robot.role_label)
+    return {"dir": None, "robot": cell_id(cell), "holding": _held(state, model, cell), "busy": not robot.free(state.t),
+            "failed": False, "op": robot.op_label, "role": robot.role_label}
 
 
 def option_record(cand: Candidate) -> dict[str, Any]:
@@ -235,20 +238,14 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     """
     public = views.robots if views is not None else {
         nc: public_view(state, model, nc) for nc in (cell, *(nc for _, _, nc in model.moore_neighbours[cell]))}
-    own_id, own_held, own_busy, _, _ = public[cell]
-    neighbours = [
-        {
-            "dir": direction,
-            "robot": rid,
-            "holding": None if held is None else dict(held),
-            "busy": busy,
-            "failed": False,
-            "op": op,
-            "role": role,
-        }
-        for _, direction, nc in model.moore_neighbours[cell]
-        for rid, held, busy, op, role in (public[nc],)
-    ]
+    own = public[cell]
+    neighbours = []
+    for _, direction, nc in model.moore_neighbours[cell]:
+        record = public[nc].copy()
+        record["dir"] = direction
+        if record["holding"] is not None:
+            record["holding"] = dict(record["holding"])
+        neighbours.append(record)
     ops = []
     for cand, frac in zip(options.operations, options.supports):
         record = dict(views.options[cand.cid]) if views is not None else option_record(cand)
@@ -257,11 +254,11 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
         record["support"] = frac
         ops.append(record)
     return {
-        "robot": own_id,
+        "robot": own["robot"],
         "t": state.t,
         "grid": [model.rows, model.cols],
-        "holding": None if own_held is None else dict(own_held),
-        "busy": own_busy,
+        "holding": None if own["holding"] is None else dict(own["holding"]),
+        "busy": own["busy"],
         "failed": False,
         "supports": state.robots[cell].supports,
         "neighbours": neighbours,
