@@ -72,9 +72,11 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
             return PICK0
         best = None
         for nb in obs["neighbours"]:
-            d = _DIR_INDEX[nb["dir"]]
             item = nb["holding"]
-            if item is None or nb["busy"] or not mask[RECEIVE0 + d]:
+            if item is None or nb["busy"]:
+                continue
+            d = _DIR_INDEX[nb["dir"]]
+            if not mask[RECEIVE0 + d]:
                 continue
             at = parse_cell(nb["robot"])
             target = item_target(item["product"], item["token"], item["final"], at, rows, cols)

@@ -104,16 +104,16 @@ def pick_options(state: State, model: Model, cell: Cell,
 
 def build_options(state: State, model: Model, candidates: list[Candidate]) -> dict[Cell, Options]:
     """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id)."""
-    per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {c: [] for c in model.cells}
+    per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {}  # robots in no candidate are absent
     for cand in candidates:
         frac = support_fraction(state, model, cand)
         for m in cand.members:
-            per_robot[m].append((frac, cand.cid, cand))
+            per_robot.setdefault(m, []).append((frac, cand.cid, cand))
     out = {}
     pickable = pickable_tokens(state, model)
     for cell in model.cells:
-        ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1]))
-        picks = pick_options(state, model, cell, pickable)
+        ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1])) if cell in per_robot else []
+        picks = pick_options(state, model, cell, pickable) if pickable else []
         if len(ops) > OP_SLOTS or len(picks) > PICK_SLOTS:
             raise SlotOverflow(
                 f"robot {cell_id(cell)} at t={state.t}: {len(picks)} pick options (limit {PICK_SLOTS}), "
@@ -127,20 +127,22 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
     return out
 
 
+IDLE_ONLY = (True,) + (False,) * (N_ACTIONS - 1)  # O-MASK of a robot with no other legal action
+
+
 def action_mask(state: State, model: Model, cell: Cell, options: Options) -> list[bool]:
     """O-MASK: remove only locally detectable impossibilities; idle is always legal (INV-MASKING)."""
-    mask = [False] * N_ACTIONS
-    mask[IDLE] = True
     robot = state.robots[cell]
     if not robot.free(state.t):
-        return mask
+        return list(IDLE_ONLY)
     n_ops = len(options.operations)
-    if robot.supports is not None and state.t < robot.switch_lock:
-        for k, cand in enumerate(options.operations):  # R-SWITCH-LOCK: only the pending candidate
-            if cand.cid == robot.supports:
-                mask[OP0 + k] = True
-        return mask
     if robot.supports is not None:
+        mask = list(IDLE_ONLY)
+        if state.t < robot.switch_lock:
+            for k, cand in enumerate(options.operations):  # R-SWITCH-LOCK: only the pending candidate
+                if cand.cid == robot.supports:
+                    mask[OP0 + k] = True
+            return mask
         for k in range(n_ops):
             mask[OP0 + k] = True
         return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
