@@ -229,7 +229,7 @@ class Model:
 
     @cached_property
     def plans(self) -> geometry.PlanMemo:
-        """Operation candidates' motion plans, remembered across epochs (a cache, not state)."""
+        """G-MOTION plans of candidates and logistics activities, remembered across epochs (a cache, not state)."""
         return geometry.PlanMemo(self.profile)
 
     def adjacent(self, a: Cell, b: Cell) -> bool:

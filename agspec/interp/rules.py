@@ -114,7 +114,7 @@ def start_picks(state: State, model: Model, picks: list[tuple[Cell, dict]], even
             continue
         spacing = float(model.profile["spacing"])
         target = geometry.shelf_point(row, spacing)
-        plan = geometry.plan_activity([(cell, robot.pose, target)], model.pick_duration, model.profile, common_target=target)
+        plan = model.plans.plan([(cell, robot.pose, target)], model.pick_duration, target)  # G-MOTION
         if plan is None:
             continue
         resources = frozenset({f"shelf:{row}:{token}"})
@@ -173,11 +173,8 @@ def start_handoffs(state: State, model: Model, sends: dict[Cell, int], receives:
             continue
         item = sender.holding
         target = geometry.handoff_point(sender_cell, recv_cell, spacing)
-        plan = geometry.plan_activity(
-            [(sender_cell, sender.pose, target), (recv_cell, receiver.pose, target)],
-            model.handoff_duration,
-            model.profile,
-            common_target=target,
+        plan = model.plans.plan(  # G-MOTION
+            [(sender_cell, sender.pose, target), (recv_cell, receiver.pose, target)], model.handoff_duration, target
         )
         if plan is None:
             continue
@@ -381,7 +378,7 @@ def start_deliveries(state: State, model: Model, deliverers: list[Cell], events:
         if item[1] != model.recipes[product.recipe].terminal or product.delivered:
             continue
         target = geometry.output_point(cell[0], model.cols, spacing)
-        plan = geometry.plan_activity([(cell, robot.pose, target)], model.deliver_duration, model.profile, common_target=target)
+        plan = model.plans.plan([(cell, robot.pose, target)], model.deliver_duration, target)  # G-MOTION
         if plan is None:
             continue
         resources = frozenset({f"product:{product.pid}"})
