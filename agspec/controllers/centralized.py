@@ -104,7 +104,7 @@ class CentralizedController:
     def select(self, sim) -> set[str]:
         cands = sim.decision.candidates
         weights = {c.cid: productive_weight(sim, c) for c in cands}
-        problem, _ = capacity_problem(sim.state, sim.model, cands, weights)
+        problem, _ = capacity_problem(sim.state, sim.model, cands, weights, sim.compatibility())
         return {c.id for c in weighted_selection(problem)}
 
     def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]:
@@ -128,4 +128,4 @@ class CentralizedController:
         for k, opt in enumerate(options):
             if opt["id"] in selected and mask[OP0 + k]:
                 return OP0 + k
-        return self._pa.act_one(obs)  # robots outside the selection follow Parallel-aware
+        return self._pa.choose(obs)  # robots outside the selection follow Parallel-aware

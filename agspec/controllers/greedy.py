@@ -29,10 +29,12 @@ _DIR_INDEX = {name: d for d, name in enumerate(DIRECTION_NAMES)}
 
 def operation_choice(obs: Obs) -> int | None:
     """C-GREEDY operation rule; None when the robot has no operation decision to make."""
-    mask = obs["mask"]
     options = obs["operation_options"]
-    enabled = [k for k in range(len(options)) if mask[OP0 + k]]
     pending = obs.get("supports")
+    if not options and pending is None:
+        return None  # nothing offered, nothing pending
+    mask = obs["mask"]
+    enabled = [k for k in range(len(options)) if mask[OP0 + k]]
     if pending is not None:
         pending_slot = next((k for k in enabled if options[k]["id"] == pending), None)
         if len(enabled) > 1:
@@ -70,9 +72,11 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
             return PICK0
         best = None
         for nb in obs["neighbours"]:
-            d = _DIR_INDEX[nb["dir"]]
             item = nb["holding"]
-            if item is None or nb["busy"] or not mask[RECEIVE0 + d]:
+            if item is None or nb["busy"]:
+                continue
+            d = _DIR_INDEX[nb["dir"]]
+            if not mask[RECEIVE0 + d]:
                 continue
             at = parse_cell(nb["robot"])
             target = item_target(item["product"], item["token"], item["final"], at, rows, cols)
@@ -124,6 +128,10 @@ class GreedyController:
         mask = obs["mask"]
         if obs["busy"] or not any(mask[1:]):
             return IDLE
+        return self.choose(obs)
+
+    def choose(self, obs: Obs) -> int:
+        """The choice of a robot that is free and has a legal action besides idle."""
         op = operation_choice(obs)
         if op is not None:
             return op

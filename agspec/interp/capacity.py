@@ -692,6 +692,8 @@ def _sortable(key: Hashable):
 def _solve(problem: CapacityProblem, weighted: bool, node_budget: int) -> CapacityResult:
     if weighted and any(not c.weight > 0 for c in problem.candidates):
         raise ValueError("productive weights must be positive (M-CAPACITY weighted mode)")
+    if not problem.candidates:  # most states: nothing to choose, K* = running (no search, no seed)
+        return _result(problem, [], True, 0)
     search = _Search(problem, weighted, node_budget)
     value, chosen = search.run()
     greedy = _first_fit(problem, _greedy_weight_key if weighted else _greedy_count_key)

@@ -297,7 +297,8 @@ class PlanMemo:
     """Plans of one profile by (members with their current poses and targets, process, common target).
 
     A plan is a pure function of those inputs (G-MOTION), and an instance's candidates are planned
-    again every epoch while most poses have not changed, so the interpreter looks them up here.
+    again every epoch while most poses have not changed (as are picks, handoffs and deliveries that
+    were blocked and are tried again), so the interpreter looks them up here.
     MotionInfeasible (None) is remembered too.  Bounded: the memo starts over past ``limit`` entries.
     """
 

@@ -29,14 +29,51 @@ class CapacitySnapshot:
     selected: tuple[str, ...] = ()
 
 
-def capacity_problem(state: State, model: Model, candidates: list[Candidate], weights: dict[str, float] | None = None):
-    """Build the M-CAPACITY problem: running operations plus candidates compatible with every reservation."""
+@dataclass(frozen=True)
+class Compatibility:
+    """The weight-free part of one state's M-CAPACITY problem: the running operations, the
+    candidates compatible with every reservation, their pairwise conflicts (by position in
+    ``compatible``) and the finite-capacity resources with their committed use."""
+
+    running: int
+    compatible: list[Candidate]
+    conflicts: set[frozenset[int]]
+    resource_capacity: dict[str, int]
+    resource_external_use: dict[str, int]
+
+
+def compatibility(state: State, model: Model, candidates: list[Candidate]) -> Compatibility:
+    """M-CAPACITY: running operations plus candidates compatible with every reservation, and what
+    excludes them from each other."""
     running = sum(1 for a in state.activities if a.is_operation)
     compatible = [
         c for c in candidates if blocking_cause(state, model, c.members, c.resources, c.plan, c.target) is None
     ]
+    conflicts = set()
+    for a, b in combinations(range(len(compatible)), 2):
+        ca, cb = compatible[a], compatible[b]
+        if (
+            not set(ca.members).isdisjoint(cb.members)
+            or shares_exclusive(model, ca.resources, cb.resources)
+            or geometric_conflict(model, ca.plan, ca.target, ca.members, cb.plan, cb.target, cb.members)
+        ):
+            conflicts.add(frozenset((a, b)))
+    finite = {r: model.resource_cap(r) for c in compatible for r in c.resources if model.resource_cap(r) > 1}
+    external = {r: sum(1 for act in state.activities if r in act.resources and not act.is_operation) for r in finite}
+    # running operations are members of every feasible set: their use of finite resources counts too
+    for r in finite:
+        external[r] += sum(1 for act in state.activities if r in act.resources and act.is_operation)
+    return Compatibility(running, compatible, conflicts, finite, external)
+
+
+def capacity_problem(state: State, model: Model, candidates: list[Candidate], weights: dict[str, float] | None = None,
+                     compat: Compatibility | None = None):
+    """Build the M-CAPACITY problem: running operations plus candidates compatible with every reservation.
+    ``compat`` is :func:`compatibility` of this state and these candidates when the caller already has it."""
+    if compat is None:
+        compat = compatibility(state, model, candidates)
     cands = []
-    for k, c in enumerate(compatible):
+    for k, c in enumerate(compat.compatible):
         xor_key = (c.pid, c.op.xor_group) if c.op.xor_group else None
         cands.append(
             cap.Cand(
@@ -51,32 +88,19 @@ def capacity_problem(state: State, model: Model, candidates: list[Candidate], we
                 id=c.cid,
             )
         )
-    conflicts = set()
-    for a, b in combinations(range(len(compatible)), 2):
-        ca, cb = compatible[a], compatible[b]
-        if (
-            set(ca.members) & set(cb.members)
-            or shares_exclusive(model, ca.resources, cb.resources)
-            or geometric_conflict(model, ca.plan, ca.target, ca.members, cb.plan, cb.target, cb.members)
-        ):
-            conflicts.add(frozenset((a, b)))
-    finite = {r: model.resource_cap(r) for c in compatible for r in c.resources if model.resource_cap(r) > 1}
-    external = {r: sum(1 for act in state.activities if r in act.resources and not act.is_operation) for r in finite}
-    # running operations are members of every feasible set: their use of finite resources counts too
-    for r in finite:
-        external[r] += sum(1 for act in state.activities if r in act.resources and act.is_operation)
     problem = cap.CapacityProblem(
-        running=running,
+        running=compat.running,
         candidates=cands,
-        conflicts=conflicts,
-        resource_capacity=finite,
-        resource_external_use=external,
+        conflicts=compat.conflicts,
+        resource_capacity=compat.resource_capacity,
+        resource_external_use=compat.resource_external_use,
     )
-    return problem, compatible
+    return problem, compat.compatible
 
 
-def capacity_snapshot(state: State, model: Model, candidates: list[Candidate]) -> CapacitySnapshot:
-    problem, compatible = capacity_problem(state, model, candidates)
+def capacity_snapshot(state: State, model: Model, candidates: list[Candidate],
+                      compat: Compatibility | None = None) -> CapacitySnapshot:
+    problem, compatible = capacity_problem(state, model, candidates, compat=compat)
     result = cap.solve_count(problem)
     return CapacitySnapshot(
         k_star=result.k_star, running=problem.running, exact=result.exact, compatible=compatible,

@@ -11,7 +11,7 @@ from typing import Any
 
 import networkx as nx
 
-from agspec.formats.actions import DIRECTION_NAMES
+from agspec.formats.actions import DIRECTION_NAMES, HANDOFF0, IDLE, N_ACTIONS, RECEIVE0
 from agspec.interp import geometry
 from agspec.ir import topology, variants
 
@@ -208,8 +208,28 @@ class Model:
         }
 
     @cached_property
+    def direction_masks(self) -> dict[Cell, tuple[tuple[bool, ...], tuple[bool, ...]]]:
+        """The static part of O-MASK per cell: idle plus every in-grid receive slot (for an empty
+        robot) and idle plus every in-grid handoff slot (for a holding robot)."""
+        out = {}
+        for c, around in self.moore_neighbours.items():
+            receive, handoff = [False] * N_ACTIONS, [False] * N_ACTIONS
+            receive[IDLE] = handoff[IDLE] = True
+            for d, _, _ in around:
+                receive[RECEIVE0 + d] = handoff[HANDOFF0 + d] = True
+            out[c] = (tuple(receive), tuple(handoff))
+        return out
+
+    @cached_property
+    def conflict_parameters(self) -> tuple[float, float, bool]:
+        """G-CONFLICT's profile parameters: rho_conf, the clearance (homogeneous population: one for
+        all robots) and whether trajectory segments are tested (variant ``trajectory_conflicts``)."""
+        return (float(self.profile["rho_conf"]), float(self.profile["clearance"]),
+                variants.enabled("trajectory_conflicts", self.profile))
+
+    @cached_property
     def plans(self) -> geometry.PlanMemo:
-        """Operation candidates' motion plans, remembered across epochs (a cache, not state)."""
+        """G-MOTION plans of candidates and logistics activities, remembered across epochs (a cache, not state)."""
         return geometry.PlanMemo(self.profile)
 
     def adjacent(self, a: Cell, b: Cell) -> bool:

@@ -104,16 +104,16 @@ def pick_options(state: State, model: Model, cell: Cell,
 
 def build_options(state: State, model: Model, candidates: list[Candidate]) -> dict[Cell, Options]:
     """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id)."""
-    per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {c: [] for c in model.cells}
+    per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {}  # robots in no candidate are absent
     for cand in candidates:
         frac = support_fraction(state, model, cand)
         for m in cand.members:
-            per_robot[m].append((frac, cand.cid, cand))
+            per_robot.setdefault(m, []).append((frac, cand.cid, cand))
     out = {}
     pickable = pickable_tokens(state, model)
     for cell in model.cells:
-        ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1]))
-        picks = pick_options(state, model, cell, pickable)
+        ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1])) if cell in per_robot else []
+        picks = pick_options(state, model, cell, pickable) if pickable else []
         if len(ops) > OP_SLOTS or len(picks) > PICK_SLOTS:
             raise SlotOverflow(
                 f"robot {cell_id(cell)} at t={state.t}: {len(picks)} pick options (limit {PICK_SLOTS}), "
@@ -127,32 +127,32 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
     return out
 
 
+IDLE_ONLY = (True,) + (False,) * (N_ACTIONS - 1)  # O-MASK of a robot with no other legal action
+
+
 def action_mask(state: State, model: Model, cell: Cell, options: Options) -> list[bool]:
     """O-MASK: remove only locally detectable impossibilities; idle is always legal (INV-MASKING)."""
-    mask = [False] * N_ACTIONS
-    mask[IDLE] = True
     robot = state.robots[cell]
     if not robot.free(state.t):
-        return mask
+        return list(IDLE_ONLY)
     n_ops = len(options.operations)
-    if robot.supports is not None and state.t < robot.switch_lock:
-        for k, cand in enumerate(options.operations):  # R-SWITCH-LOCK: only the pending candidate
-            if cand.cid == robot.supports:
-                mask[OP0 + k] = True
-        return mask
-    for k in range(n_ops):
-        mask[OP0 + k] = True
     if robot.supports is not None:
+        mask = list(IDLE_ONLY)
+        if state.t < robot.switch_lock:
+            for k, cand in enumerate(options.operations):  # R-SWITCH-LOCK: only the pending candidate
+                if cand.cid == robot.supports:
+                    mask[OP0 + k] = True
+            return mask
+        for k in range(n_ops):
+            mask[OP0 + k] = True
         return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
-    in_grid = model.moore_neighbours[cell]
+    receive, handoff = model.direction_masks[cell]  # idle and the in-grid receive / handoff slots
     if robot.holding is None:
+        mask = list(receive)
         for k in range(len(options.picks)):
             mask[PICK0 + k] = True
-        for d, _, _ in in_grid:
-            mask[RECEIVE0 + d] = True
     else:
-        for d, _, _ in in_grid:
-            mask[HANDOFF0 + d] = True
+        mask = list(handoff)
         product = state.products[robot.holding[0]]
         spacing = float(model.profile["spacing"])
         if (
@@ -161,6 +161,8 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
             and geometry.reachable(cell, geometry.output_point(cell[0], model.cols, spacing), float(model.profile["reach"]), spacing)
         ):
             mask[DELIVER] = True
+    for k in range(n_ops):
+        mask[OP0 + k] = True
     return mask
 
 
@@ -193,14 +195,17 @@ class EpochViews:
     """What every observation of one epoch shares, built once per epoch instead of once per observer:
     each robot's public view (what its neighbours see) and each candidate's option record."""
 
-    robots: dict[Cell, tuple[str, dict[str, Any] | None, bool, str | None, str | None]]
+    robots: dict[Cell, dict[str, Any]]
     options: dict[str, dict[str, Any]]
 
 
-def public_view(state: State, model: Model, cell: Cell) -> tuple[str, dict[str, Any] | None, bool, str | None, str | None]:
-    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels."""
+def public_view(state: State, model: Model, cell: Cell) -> dict[str, Any]:
+    """O-OBSERVATION, neighbour part: robot id, held item, busy, current activity and role labels.
+
+    The record of a neighbour entry; its direction ``dir`` is the observer's, set in each copy."""
     robot = state.robots[cell]
-    return (cell_id(cell), _held(state, model, cell), not robot.free(state.t), robot.op_label, robot.role_label)
+    return {"dir": None, "robot": cell_id(cell), "holding": _held(state, model, cell), "busy": not robot.free(state.t),
+            "failed": False, "op": robot.op_label, "role": robot.role_label}
 
 
 def option_record(cand: Candidate) -> dict[str, Any]:
@@ -233,21 +238,16 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
     No global state, no remote robots, no due dates or values, no supporter identities.
     ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
-    robot = state.robots[cell]
-    around = [(direction, views.robots[nc] if views is not None else public_view(state, model, nc))
-              for _, direction, nc in model.moore_neighbours[cell]]
-    neighbours = [
-        {
-            "dir": direction,
-            "robot": rid,
-            "holding": None if held is None else dict(held),
-            "busy": busy,
-            "failed": False,
-            "op": op,
-            "role": role,
-        }
-        for direction, (rid, held, busy, op, role) in around
-    ]
+    public = views.robots if views is not None else {
+        nc: public_view(state, model, nc) for nc in (cell, *(nc for _, _, nc in model.moore_neighbours[cell]))}
+    own = public[cell]
+    neighbours = []
+    for _, direction, nc in model.moore_neighbours[cell]:
+        record = public[nc].copy()
+        record["dir"] = direction
+        if record["holding"] is not None:
+            record["holding"] = dict(record["holding"])
+        neighbours.append(record)
     ops = []
     for cand, frac in zip(options.operations, options.supports):
         record = dict(views.options[cand.cid]) if views is not None else option_record(cand)
@@ -256,15 +256,16 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
         record["support"] = frac
         ops.append(record)
     return {
-        "robot": cell_id(cell),
+        "robot": own["robot"],
         "t": state.t,
         "grid": [model.rows, model.cols],
-        "holding": _held(state, model, cell),
-        "busy": not robot.free(state.t),
+        "holding": None if own["holding"] is None else dict(own["holding"]),
+        "busy": own["busy"],
         "failed": False,
-        "supports": robot.supports,
+        "supports": state.robots[cell].supports,
         "neighbours": neighbours,
-        "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks],
+        "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks]
+        if options.picks else [],
         "operation_options": ops,
         "mask": mask,
     }

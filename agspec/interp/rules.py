@@ -12,7 +12,6 @@ from agspec.interp import geometry
 from agspec.interp.candidates import Candidate
 from agspec.interp.model import DIRECTIONS, Model
 from agspec.interp.state import Activity, Cell, Product, Proposal, State, cell_id
-from agspec.ir import variants
 
 Events = list[dict[str, Any]]
 
@@ -26,13 +25,12 @@ def bump(state: State, name: str, by: float = 1) -> None:
 
 def geometric_conflict(model: Model, plan_a, target_a, members_a, plan_b, target_b, members_b) -> bool:
     """G-CONFLICT between two motion plans (only when the profile checks trajectory conflicts)."""
-    clearance = float(model.profile["clearance"])  # homogeneous population: one clearance for all
-    segments = variants.enabled("trajectory_conflicts", model.profile)
-    return geometry.plans_conflict(plan_a, plan_b, float(model.profile["rho_conf"]), clearance, segments=segments)
+    rho_conf, clearance, segments = model.conflict_parameters
+    return geometry.plans_conflict(plan_a, plan_b, rho_conf, clearance, segments=segments)
 
 
 def shares_exclusive(model: Model, res_a: Iterable[str], res_b: Iterable[str]) -> bool:
-    return any(model.resource_cap(r) <= 1 for r in set(res_a) & set(res_b))
+    return any(model.resource_cap(r) <= 1 for r in frozenset(res_a).intersection(res_b))
 
 
 def exhausted(state: State, model: Model, resources: Iterable[str]) -> bool:
@@ -55,7 +53,7 @@ def blocking_cause(state: State, model: Model, members, resources, plan, target)
     members = set(members)
     geo = False
     for act in state.activities:
-        if members & set(act.members):
+        if not members.isdisjoint(act.members):
             return "robot"
         if shares_exclusive(model, resources, act.resources):
             return "resource"
@@ -116,7 +114,7 @@ def start_picks(state: State, model: Model, picks: list[tuple[Cell, dict]], even
             continue
         spacing = float(model.profile["spacing"])
         target = geometry.shelf_point(row, spacing)
-        plan = geometry.plan_activity([(cell, robot.pose, target)], model.pick_duration, model.profile, common_target=target)
+        plan = model.plans.plan([(cell, robot.pose, target)], model.pick_duration, target)  # G-MOTION
         if plan is None:
             continue
         resources = frozenset({f"shelf:{row}:{token}"})
@@ -175,11 +173,8 @@ def start_handoffs(state: State, model: Model, sends: dict[Cell, int], receives:
             continue
         item = sender.holding
         target = geometry.handoff_point(sender_cell, recv_cell, spacing)
-        plan = geometry.plan_activity(
-            [(sender_cell, sender.pose, target), (recv_cell, receiver.pose, target)],
-            model.handoff_duration,
-            model.profile,
-            common_target=target,
+        plan = model.plans.plan(  # G-MOTION
+            [(sender_cell, sender.pose, target), (recv_cell, receiver.pose, target)], model.handoff_duration, target
         )
         if plan is None:
             continue
@@ -383,7 +378,7 @@ def start_deliveries(state: State, model: Model, deliverers: list[Cell], events:
         if item[1] != model.recipes[product.recipe].terminal or product.delivered:
             continue
         target = geometry.output_point(cell[0], model.cols, spacing)
-        plan = geometry.plan_activity([(cell, robot.pose, target)], model.deliver_duration, model.profile, common_target=target)
+        plan = model.plans.plan([(cell, robot.pose, target)], model.deliver_duration, target)  # G-MOTION
         if plan is None:
             continue
         resources = frozenset({f"product:{product.pid}"})

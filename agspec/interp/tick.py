@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 
 from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, logically_ready_occurrences, inputs_present
-from agspec.interp.metrics import MetricsAccumulator, capacity_snapshot
+from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
 from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
@@ -29,6 +29,7 @@ class Decision:
     options: dict[Cell, Options]
     masks: dict[Cell, list[bool]]
     rejected: int
+    compatibility: Compatibility | None = None  # M-CAPACITY's weight-free part, once it is needed
 
 
 @dataclass
@@ -87,6 +88,14 @@ class Simulator:
         self.decision = Decision(candidates, {c.cid: c for c in candidates}, options, masks, rejected)
         rules.bump(state, "reject_motion_infeasible", rejected)
 
+    def compatibility(self) -> Compatibility:
+        """M-CAPACITY's weight-free part for the decision epoch (the capacity sample of step 1 and the
+        centralized reference both need it; computed once per epoch)."""
+        d = self.decision
+        if d.compatibility is None:
+            d.compatibility = compatibility(self.state, self.model, d.candidates)
+        return d.compatibility
+
     @property
     def t(self) -> int:
         return self.state.t
@@ -133,7 +142,7 @@ class Simulator:
         events = result.events
 
         # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
-        capacity = capacity_snapshot(state, model, d.candidates)
+        capacity = capacity_snapshot(state, model, d.candidates, self.compatibility())
         ready = logically_ready_occurrences(state, model)  # M-RF-BR: R_t (paper: logical readiness)
         with_material = [(p, op) for p, op in ready if inputs_present(state, p, op)]  # DIV-BR-READY-SET
         feasible = {c.group for c in capacity.compatible}  # F_t: >= 1 candidate compatible with commitments
@@ -141,7 +150,7 @@ class Simulator:
         self.metrics.pre_action(capacity, len(ready), len(with_material), n_feasible)
 
         # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
-        decoded: dict[Cell, tuple[str, Any]] = {}
+        decoded: dict[Cell, tuple[str, Any]] = {}  # robots that start something (idle decodes to no activity)
         for c in model.cells:
             a = actions[c]
             if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
@@ -152,7 +161,8 @@ class Simulator:
                 events.append({"type": "action_coerced", "robot": cell_id(c), "action": a})
                 a = IDLE
             result.applied[cell_id(c)] = a
-            decoded[c] = decode(a, d.options[c])
+            if a != IDLE:
+                decoded[c] = decode(a, d.options[c])
 
         progress = 0  # R-NO-PROGRESS: admissions and completions of this tick
         # step 3: R-PICK
