@@ -102,7 +102,7 @@ def test_golden_file_validates_and_is_keyed_by_everything_the_reference_depends_
     (path,) = golden_files(tmp_path)
     data = json.loads(path.read_text())
     assert schemas.validate("golden", data) == []
-    assert len(data["replies"]) == 13 and len(data["actions"]) == 12
+    assert len(data["replies"]) == 13 * 64 and len(data["actions"]) == 12
     assert path == golden.path_of(tmp_path, golden.key(item))
     variants = [episode("flow-easy", 13), episode("flow-easy", 12, seed=3), episode("flow-easy", 12, "random"),
                 episode("flow-medium", 12)]
@@ -133,7 +133,7 @@ def test_a_wrong_golden_trace_with_a_valid_digest_cannot_fail_an_honest_implemen
     (path,) = golden_files(tmp_path)
     data = json.loads(path.read_text())
     body = {k: v for k, v in data.items() if k != "digest"}
-    body["replies"][7] = ["0" * 32, "0" * 32]
+    body["replies"] = body["replies"][:7 * 64] + "0" * 64 + body["replies"][8 * 64:]  # reply 7's digests
     path.write_text(json.dumps({**body, "digest": fmt._digest(body)}))
     fmt.load(path, golden.key(item))  # a consistent file: it verifies
     result = run([item], "reference", tmp_path).results[0][0]

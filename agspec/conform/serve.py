@@ -100,7 +100,9 @@ class Server:
         if self.capabilities["observations"]:
             reply["observations"] = sim.observe()
         if self.capabilities["masks"]:
-            reply["masks"] = sim.masks()
+            # O-MASK: the same lists the observations carry (built once per epoch), else their own
+            obs = reply.get("observations")
+            reply["masks"] = {r: o["mask"] for r, o in obs.items()} if obs is not None else sim.masks()
         reply["done"] = sim.done
         return reply
 
