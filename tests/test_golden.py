@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from agspec.conform import golden, runner
-from agspec.conform.impl import make_impl
+from agspec.conform.impl import SubprocessImpl, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import Options
 from agspec.formats import golden as fmt
@@ -240,22 +240,25 @@ def test_the_golden_path_is_exercised_by_the_mutants(mutant_pairs):
 
 
 def test_a_failing_implementation_is_not_run_twice_through_the_matching_prefix(tmp_path):
-    """After the replay stops at the first differing reply, the live run goes on from there
-    (golden.Resumed): the implementation receives exactly the requests of a live run."""
-    m = registry.MUTANTS["dup-handoff"]
-    item = workload_item(m)
+    """After the replay stops at the first differing reply (tick 42 here), the live run goes on from
+    there (golden.Resumed): the implementation receives the requests of a live run plus at most the
+    few the pipeline had in flight — never the matching prefix a second time."""
+    item = episode("flow-easy", 60)
+    spec = sim_spec("wip-drift")
     run([item], "reference", tmp_path)
-    seqs = {}
+    seqs, ticks = {}, {}
     for label, cache in (("live", None), ("golden", tmp_path)):
-        impl = make_impl(sim_spec(m.name), timeout=timeout_for(m))
+        impl = make_impl(spec, timeout=15.0)
         try:
-            summary = runner.run([item], impl.spec, opts=Options(impl_spec=impl.spec, golden_dir=cache and str(cache)),
-                                 impl=impl)
-            assert summary.results[0][1] == "fail"
-            seqs[label] = impl._seq
+            summary = runner.run([item], spec, opts=Options(impl_spec=spec, golden_dir=cache and str(cache)), impl=impl)
+            result, outcome = summary.results[0]
+            assert outcome == "fail"
+            seqs[label], ticks[label] = impl._seq, result.failure["tick"]
         finally:
             impl.close()
-    assert seqs["golden"] == seqs["live"]
+    assert ticks["golden"] == ticks["live"] >= 20
+    # the item runs twice (F-CONFORM-NONDETERMINISM replays the first failure): twice the slack
+    assert seqs["live"] <= seqs["golden"] <= seqs["live"] + 2 * (SubprocessImpl.PIPELINE - 1)
 
 
 @pytest.mark.parametrize("trace", sorted((HERE.parent / "conformance" / "traces").glob("*.jsonl")), ids=lambda p: p.stem)

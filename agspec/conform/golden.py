@@ -105,35 +105,41 @@ def _same(reply: Reply, digests: tuple[str, str]) -> bool:
     return reply is MATCHED or fmt.value_digest(reply) == digests[1]
 
 
-def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> tuple[int, Reply] | None:
-    """Send the golden actions; at the first reply without the golden digest, its index (0: the reset
-    reply) and the reply itself (the caller goes on live from there, :class:`Resumed`); None when
-    every reply had it.  Failures of the implementation propagate (ProtocolError) with
-    ``failure_tick`` set on the exception."""
-    tick = -1
+def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> tuple[int, list[Any]] | None:
+    """Send the golden actions (a process gets several ahead, :meth:`Implementation.pipeline`); at the
+    first reply without the golden digest, its index (0: the reset reply) and the replies the
+    implementation has sent from there on — that one, then those to the requests still in flight
+    (a failure among them last) — for :class:`Resumed`; None when every reply had the golden digest.
+    Failures of the implementation propagate (ProtocolError) with ``failure_tick`` set."""
+    at = -1  # the tick whose reply is awaited (-1: load and reset)
     try:
         impl.load(item.instance)
         reply = impl.reset(item.execution_seed, golden=golden.replies[0])
         if not _same(reply, golden.replies[0]):
-            return 0, reply
-        for tick, (joint, digests) in enumerate(zip(golden.actions, golden.replies[1:])):
-            reply = impl.step(joint, golden=digests)
+            return 0, [reply]
+        pipe = impl.pipeline(list(zip(golden.actions, golden.replies[1:])))
+        replies = iter(pipe)
+        for at, digests in enumerate(golden.replies[1:]):
+            reply = next(replies)
             if not _same(reply, digests):
-                return tick + 1, reply
+                return at + 1, [reply, *pipe.rest()]
     except Exception as exc:
-        exc.failure_tick = tick  # type: ignore[attr-defined]
+        exc.failure_tick = at  # type: ignore[attr-defined]
         raise
     return None
 
 
 class Resumed:
-    """The implementation as the live run sees it after a replay stopped at reply ``k`` (F-GOLDEN):
-    it already answered every request up to ``k``, so replies before ``k`` are those of ``mirror``
-    (the live reference, asked first — the implementation's had the same digests), reply ``k`` is
-    the one it sent, and later requests go to it.  Its prefix is not run a second time."""
+    """The implementation as the live run sees it after a replay stopped at reply ``k`` (F-GOLDEN).
+    It has answered every request up to ``k`` and a few more (the pipeline): replies before ``k``
+    are those of ``mirror`` (the live reference, asked first — the implementation's had the same
+    digests), the replies it already sent are handed out in order (a failure among them is raised
+    when its turn comes), and later requests go to it.  No request is sent to it twice."""
 
-    def __init__(self, impl: Implementation, k: int, reply: Reply, mirror: Implementation):
-        self.impl, self.k, self.reply, self.mirror = impl, k, reply, mirror
+    def __init__(self, impl: Implementation, k: int, replies: list[Any], mirror: Implementation,
+                 actions: tuple[Mapping[str, int], ...] = ()):
+        self.impl, self.k, self.replies, self.mirror = impl, k, list(replies), mirror
+        self.actions = actions  # the golden actions, to check the live run sends the same
         self.spec, self.n = impl.spec, 0
 
     @property
@@ -146,17 +152,25 @@ class Resumed:
     def load(self, instance: Mapping[str, Any]) -> None:
         pass  # loaded by the replay
 
-    def _answer(self) -> Reply | None:
+    def _answer(self, actions: Mapping[str, int] | None) -> Reply | None:
         n, self.n = self.n, self.n + 1
         if n < self.k:
             return self.mirror.last_reply
-        return self.reply if n == self.k else None
+        if n - self.k >= len(self.replies):
+            return None
+        if actions is not None and dict(actions) != dict(self.actions[n - 1]):
+            raise RuntimeError(f"the live run sent other actions at tick {n - 1} than the golden trace "
+                               "(the reference or the policy is not deterministic)")
+        reply = self.replies[n - self.k]
+        if isinstance(reply, BaseException):
+            raise reply
+        return reply
 
     def reset(self, execution_seed: int | None) -> Reply:
-        return self._answer()
+        return self._answer(None)
 
     def step(self, actions: Mapping[str, int]) -> Reply:
-        reply = self._answer()
+        reply = self._answer(actions)
         return self.impl.step(actions) if reply is None else reply
 
     def close(self) -> None:

@@ -33,7 +33,7 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
@@ -103,9 +103,16 @@ class Implementation:
             problems = protocol.validate_request(msg)
             if problems:  # a request we built is wrong: an agspec bug, reported loudly
                 raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
+        # start and load may build a whole model (interpreter start-up, instance compilation)
+        return self._finish(msg, lambda: self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None),
+                            golden)
+
+    def _finish(self, msg: dict[str, Any], receive: Callable[[], Any], golden: tuple[str, str] | None) -> Reply:
+        """The reply to ``msg`` (``receive()`` waits for it): MATCHED, or decoded and checked; a failure
+        ends the session (the next request restarts it)."""
+        cmd = msg["cmd"]
         try:
-            # start and load may build a whole model (interpreter start-up, instance compilation)
-            raw = self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None)
+            raw = receive()
             if golden is not None and _golden_text(raw, msg["seq"]) == golden[0]:
                 return MATCHED
             reply = self._decoded(msg, raw)
@@ -124,6 +131,11 @@ class Implementation:
             raise
         self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
         return reply
+
+    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> "Pipeline":
+        """F-GOLDEN: ``step`` requests (actions, golden digests) answered in order; in process one at a time."""
+        self._ensure()
+        return Pipeline(self, steps, window=1)
 
     def exchange(self, msg: dict[str, Any], timeout: float | None) -> Reply:
         """Send one message and return its decoded reply (seq checked), without the protocol's reply
@@ -319,6 +331,63 @@ def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -
     raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)}")
 
 
+class Pipeline:
+    """F-GOLDEN: the replies to a sequence of ``step`` requests, in order, each as ``_request`` returns it
+    (MATCHED, or decoded and checked; a failure raises).  A process gets up to ``window`` requests
+    ahead of the reply read; :meth:`rest` reads the replies still in flight, so the session stays in
+    step when the caller stops early."""
+
+    def __init__(self, impl: "Implementation", steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]],
+                 window: int):
+        self.impl, self.steps, self.window = impl, list(steps), max(1, window)
+        self.sent: collections.deque = collections.deque()  # (msg, golden) awaiting their replies
+        self.next = 0
+
+    def _fill(self) -> None:
+        impl = self.impl
+        while self.next < len(self.steps) and len(self.sent) < self.window:
+            actions, golden = self.steps[self.next]
+            msg = protocol.request("step", impl._next_seq(), actions=dict(actions))
+            self.next += 1
+            if self.window == 1:  # in process: the reply is computed when it is asked for
+                self.sent.append((msg, golden, None))
+                return
+            try:
+                impl._send(msg)
+            except ProtocolError as exc:
+                self.sent.append((msg, golden, exc))
+                return
+            self.sent.append((msg, golden, None))
+
+    def _receiver(self, msg: dict[str, Any], error: ProtocolError | None) -> Callable[[], Any]:
+        def receive() -> Any:
+            if error is not None:  # the request could not be sent
+                raise error
+            return self.impl._exchange(msg, None) if self.window == 1 else self.impl._receive(msg, None)
+        return receive
+
+    def __iter__(self) -> Iterator[Reply]:
+        while True:
+            self._fill()
+            if not self.sent:
+                return
+            msg, golden, error = self.sent.popleft()
+            yield self.impl._finish(msg, self._receiver(msg, error), golden)
+
+    def rest(self) -> list[Any]:
+        """The replies to the requests still in flight, decoded and checked (a failure ends the list as
+        its last element)."""
+        out: list[Any] = []
+        while self.sent:
+            msg, _, error = self.sent.popleft()
+            try:
+                out.append(self.impl._finish(msg, self._receiver(msg, error), None))
+            except ProtocolError as exc:
+                self.sent.clear()
+                out.append(exc)
+        return out
+
+
 # ============================================================================================ subprocess
 
 
@@ -331,6 +400,7 @@ class SubprocessImpl(Implementation):
     """
 
     STDERR_KEEP = 65536
+    PIPELINE = 8  # F-GOLDEN: step requests a golden replay keeps in flight
 
     def __init__(self, command: str | list[str], timeout: float = 5.0, *, max_restarts: int = 10,
                  cwd: str | None = None, env: Mapping[str, str] | None = None, **kw: Any):
@@ -410,6 +480,10 @@ class SubprocessImpl(Implementation):
         return ProtocolError("exit", f"the simulator exited with {how} {what}", stderr=self.stderr_tail())
 
     def _exchange(self, msg: dict[str, Any], timeout: float | None) -> Any:
+        self._send(msg)
+        return self._receive(msg, timeout)
+
+    def _send(self, msg: dict[str, Any]) -> None:
         proc = self.proc
         if proc is None:
             raise ProtocolError("eof", "the simulator is not running")
@@ -419,6 +493,8 @@ class SubprocessImpl(Implementation):
             proc.stdin.flush()
         except (BrokenPipeError, OSError, ValueError):
             raise self._exit_error(f"before the {msg['cmd']} request could be sent")
+
+    def _receive(self, msg: dict[str, Any], timeout: float | None) -> str:
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         while True:
@@ -436,6 +512,12 @@ class SubprocessImpl(Implementation):
             text = raw.decode("utf-8", "replace").strip()
             if text:
                 return text  # decoded and checked by _request (F-GOLDEN may match it undecoded)
+
+    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> "Pipeline":
+        """F-GOLDEN: up to PIPELINE step requests in flight (one reply per request, in request order,
+        F-PROTOCOL), so the simulator computes the next reply while the harness checks this one."""
+        self._ensure()
+        return Pipeline(self, steps, window=self.PIPELINE)
 
     def _shutdown(self) -> None:
         proc, self.proc = self.proc, None

@@ -123,7 +123,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         reference = ReferenceImpl(observations=bool(caps.get("observations")) or policy.observes,
                                   masks=bool(caps.get("masks")))
         reference.start()
-        actual = impl if not resume else golden.Resumed(impl, *resume, mirror=reference)
+        actual = impl if not resume else golden.Resumed(impl, *resume, mirror=reference, actions=recorded.actions)
         pair = Pair(reference, actual, ("reference", impl.spec), ("reference", opts.impl_spec or impl.spec),
                     cache_loads=False)
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts(),
@@ -182,7 +182,7 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
     """F-GOLDEN: replay ``recorded`` against ``impl``.  True when that decided the item — every reply
     had the golden digest (pass, with the recorded counts), or the implementation failed a request
     (the error a live run reports at that request).  Otherwise the item goes on live: from the
-    reply that differed (``(index, reply)``, for :class:`golden.Resumed`), or from the start (None,
+    reply that differed (``(index, replies)``, for :class:`golden.Resumed`), or from the start (None,
     after an unexpected failure of the replay)."""
     res.reference = "golden"
     try:

@@ -21,7 +21,7 @@ from typing import IO, Any, Mapping
 
 from agspec import __version__
 from agspec.conform.protocol import PROTOCOL, encode, error_reply, loads
-from agspec.formats.jsonl import compact
+from agspec.formats.jsonl import compact_bytes
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
@@ -152,6 +152,8 @@ def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, ser
     """
     stdin = stdin or sys.stdin
     stdout = stdout or sys.stdout
+    stdout.flush()
+    binary = getattr(stdout, "buffer", None)
     server = server or Server()
     for line in stdin:
         if not line.strip():
@@ -163,9 +165,15 @@ def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, ser
         else:
             reply = server.handle(msg)
         try:
-            # the reference's own values are finite; error replies carry only text (F-PROTOCOL)
-            stdout.write(compact(reply) + "\n")
-            stdout.flush()
+            # the reference's own values are finite; error replies carry only text (F-PROTOCOL);
+            # bytes straight to the binary stream when there is one (no text round trip)
+            line = compact_bytes(reply) + b"\n"
+            if binary is not None:
+                binary.write(line)
+                binary.flush()
+            else:
+                stdout.write(line.decode("utf-8"))
+                stdout.flush()
         except (BrokenPipeError, OSError):
             return 0
         except ValueError as exc:  # not encodable (NaN): an agspec bug, reported as such

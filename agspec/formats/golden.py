@@ -40,13 +40,15 @@ def line_digest(line: str, seq: int) -> str | None:
     m = _SEQ_FIRST.match(line)
     if m is None or int(m.group(1)) != seq:
         return None
-    return _hex(("{" + line[m.end():]).encode("utf-8"))
+    h = hashlib.sha256(b"{")
+    h.update(line[m.end():].encode("utf-8"))
+    return h.hexdigest()[:32]
 
 
 def text_digest(reply: Mapping[str, Any]) -> str:
     """The ``text`` digest of a reply object: the line the reference server sends for it
     (:func:`agspec.formats.jsonl.compact`), without ``seq``."""
-    return _hex(jsonl.compact({k: v for k, v in reply.items() if k != "seq"}).encode("utf-8"))
+    return _hex(jsonl.compact_bytes({k: v for k, v in reply.items() if k != "seq"}))
 
 
 def canonical_bytes(value: Any) -> bytes:

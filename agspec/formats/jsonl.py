@@ -32,17 +32,23 @@ def dumps(record: Mapping[str, Any], default: Callable[[Any], Any] | None = None
                       default=default)
 
 
-def compact(value: Any) -> str:
-    """One compact JSON text in the value's own key order — the protocol's line encoding (F-PROTOCOL) of
-    values agspec built itself and knows finite (the reference server's replies).  With the ``fast``
-    extra it is orjson's; the JSON value is the same, only float spellings may differ (``1e-06`` /
-    ``1e-6``), and a value orjson does not take (an integer beyond 64 bits) falls back to ``json``."""
+def compact_bytes(value: Any) -> bytes:
+    """One compact JSON text, UTF-8, in the value's own key order — the protocol's line encoding
+    (F-PROTOCOL) of values agspec built itself and knows finite (the reference server's replies).
+    With the ``fast`` extra it is orjson's; the JSON value is the same, only float spellings may
+    differ (``1e-06`` / ``1e-6``), and a value orjson does not take (an integer beyond 64 bits)
+    falls back to ``json``."""
     if orjson is not None:
         try:
-            return orjson.dumps(value).decode("utf-8")
+            return orjson.dumps(value)
         except TypeError:
             pass
-    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode("utf-8")
+
+
+def compact(value: Any) -> str:
+    """:func:`compact_bytes` as text."""
+    return compact_bytes(value).decode("utf-8")
 
 
 MAX_DEPTH = 64  # F-PROTOCOL-ERRORS: no exchanged JSON value nests deeper (a state is < 10 levels)
