@@ -33,10 +33,11 @@ import threading
 import time
 import traceback
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from agspec.conform import protocol
 from agspec.conform.protocol import ProtocolError
+from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
@@ -132,7 +133,7 @@ class Implementation:
         self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
         return reply
 
-    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> "Pipeline":
+    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> Pipeline:
         """F-GOLDEN: ``step`` requests (actions, golden digests) answered in order; in process one at a time."""
         self._ensure()
         return Pipeline(self, steps, window=1)
@@ -331,63 +332,6 @@ def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -
     raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)}")
 
 
-class Pipeline:
-    """F-GOLDEN: the replies to a sequence of ``step`` requests, in order, each as ``_request`` returns it
-    (MATCHED, or decoded and checked; a failure raises).  A process gets up to ``window`` requests
-    ahead of the reply read; :meth:`rest` reads the replies still in flight, so the session stays in
-    step when the caller stops early."""
-
-    def __init__(self, impl: "Implementation", steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]],
-                 window: int):
-        self.impl, self.steps, self.window = impl, list(steps), max(1, window)
-        self.sent: collections.deque = collections.deque()  # (msg, golden) awaiting their replies
-        self.next = 0
-
-    def _fill(self) -> None:
-        impl = self.impl
-        while self.next < len(self.steps) and len(self.sent) < self.window:
-            actions, golden = self.steps[self.next]
-            msg = protocol.request("step", impl._next_seq(), actions=dict(actions))
-            self.next += 1
-            if self.window == 1:  # in process: the reply is computed when it is asked for
-                self.sent.append((msg, golden, None))
-                return
-            try:
-                impl._send(msg)
-            except ProtocolError as exc:
-                self.sent.append((msg, golden, exc))
-                return
-            self.sent.append((msg, golden, None))
-
-    def _receiver(self, msg: dict[str, Any], error: ProtocolError | None) -> Callable[[], Any]:
-        def receive() -> Any:
-            if error is not None:  # the request could not be sent
-                raise error
-            return self.impl._exchange(msg, None) if self.window == 1 else self.impl._receive(msg, None)
-        return receive
-
-    def __iter__(self) -> Iterator[Reply]:
-        while True:
-            self._fill()
-            if not self.sent:
-                return
-            msg, golden, error = self.sent.popleft()
-            yield self.impl._finish(msg, self._receiver(msg, error), golden)
-
-    def rest(self) -> list[Any]:
-        """The replies to the requests still in flight, decoded and checked (a failure ends the list as
-        its last element)."""
-        out: list[Any] = []
-        while self.sent:
-            msg, _, error = self.sent.popleft()
-            try:
-                out.append(self.impl._finish(msg, self._receiver(msg, error), None))
-            except ProtocolError as exc:
-                self.sent.clear()
-                out.append(exc)
-        return out
-
-
 # ============================================================================================ subprocess
 
 
@@ -513,7 +457,7 @@ class SubprocessImpl(Implementation):
             if text:
                 return text  # decoded and checked by _request (F-GOLDEN may match it undecoded)
 
-    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> "Pipeline":
+    def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> Pipeline:
         """F-GOLDEN: up to PIPELINE step requests in flight (one reply per request, in request order,
         F-PROTOCOL), so the simulator computes the next reply while the harness checks this one."""
         self._ensure()
