@@ -146,6 +146,8 @@ class Implementation:
     def _decoded(self, msg: Mapping[str, Any], raw: Any) -> Reply:
         """The reply object of what ``_exchange`` returned: a line is decoded strictly; either must be
         an object echoing the request's seq."""
+        if isinstance(raw, bytes):  # a process's line, as read (invalid UTF-8 replaced, as always)
+            raw = raw.decode("utf-8", "replace")
         if isinstance(raw, str):
             raw = _decode(raw, msg["cmd"], self.stderr_tail)
             if not isinstance(raw, dict):
@@ -309,7 +311,7 @@ def _decode(text: str, cmd: str, stderr: str | Callable[[], str]) -> Any:
 def _golden_text(raw: Any, seq: int) -> str | None:
     """F-GOLDEN: the text digest of what ``_exchange`` returned — of the line itself, or of an in-process
     reply's compact line when the ``fast`` encoder makes that cheaper than its value digest."""
-    if isinstance(raw, str):
+    if isinstance(raw, (str, bytes)):
         return golden_format.line_digest(raw, seq)
     if isinstance(raw, dict) and jsonl.orjson is not None and raw.get("seq") == seq:
         try:
@@ -453,9 +455,9 @@ class SubprocessImpl(Implementation):
             if raw is None:
                 self._lines.put(None)
                 raise self._exit_error(f"while the harness waited for the {msg['cmd']} reply")
-            text = raw.decode("utf-8", "replace").strip()
-            if text:
-                return text  # decoded and checked by _request (F-GOLDEN may match it undecoded)
+            line = raw.strip()
+            if line:
+                return line  # bytes: decoded and checked by _finish (F-GOLDEN may match it undecoded)
 
     def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> Pipeline:
         """F-GOLDEN: up to PIPELINE step requests in flight (one reply per request, in request order,
@@ -525,7 +527,7 @@ class SubprocessImpl(Implementation):
         msg = protocol.stop(self._next_seq())
         if self.on_message:
             self.on_message("->", "stop", msg)
-        reply = self._exchange(msg, min(self.timeout, 2.0))
+        reply = self._decoded(msg, self._exchange(msg, min(self.timeout, 2.0)))
         if self.on_message:
             self.on_message("<-", "stop", reply)
         if self.validate:

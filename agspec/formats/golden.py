@@ -26,7 +26,7 @@ from typing import Any, Mapping
 from agspec.formats import jsonl, limits, schemas
 
 GOLDEN_FORMAT = "agspec-golden/1"
-_SEQ_FIRST = re.compile(r'\{"seq":(\d+),')
+_SEQ_FIRST = re.compile(rb'\{"seq":(\d+),')
 
 
 def _hex(data: bytes) -> str:
@@ -34,14 +34,16 @@ def _hex(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:32]
 
 
-def line_digest(line: str, seq: int) -> str | None:
-    """The ``text`` digest of one protocol reply line whose first member is ``"seq": seq``, without it;
-    None when the line does not start that way (the caller then decodes it)."""
-    m = _SEQ_FIRST.match(line)
+def line_digest(line: str | bytes, seq: int) -> str | None:
+    """The ``text`` digest of one protocol reply line (text, or its UTF-8 bytes as read) whose first
+    member is ``"seq": seq``, without it; None when the line does not start that way (the caller then
+    decodes it)."""
+    data = line.encode("utf-8") if isinstance(line, str) else line
+    m = _SEQ_FIRST.match(data)
     if m is None or int(m.group(1)) != seq:
         return None
     h = hashlib.sha256(b"{")
-    h.update(line[m.end():].encode("utf-8"))
+    h.update(memoryview(data)[m.end():])
     return h.hexdigest()[:32]
 
 
