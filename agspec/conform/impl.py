@@ -150,8 +150,6 @@ class Implementation:
             raw = raw.decode("utf-8", "replace")
         if isinstance(raw, str):
             raw = _decode(raw, msg["cmd"], self.stderr_tail)
-            if not isinstance(raw, dict):
-                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {raw!r:.80}")
         if not isinstance(raw, dict):
             raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {raw!r:.80}")
         _check_seq(msg, raw, self._seq)

@@ -26,7 +26,7 @@ class Pipeline:
     def __init__(self, impl: Any, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]],
                  window: int):
         self.impl, self.steps, self.window = impl, list(steps), max(1, window)
-        self.sent: collections.deque = collections.deque()  # (msg, golden) awaiting their replies
+        self.sent: collections.deque = collections.deque()  # (msg, golden, send error) awaiting replies
         self.next = 0
 
     def _fill(self) -> None:

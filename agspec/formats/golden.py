@@ -29,9 +29,13 @@ GOLDEN_FORMAT = "agspec-golden/1"
 _SEQ_FIRST = re.compile(rb'\{"seq":(\d+),')
 
 
-def _hex(data: bytes) -> str:
-    """SHA-256 truncated to 128 bits (hex): the fastest strong hash here (CPUs hash SHA-256 in hardware)."""
-    return hashlib.sha256(data).hexdigest()[:32]
+def _hex(*chunks: bytes | memoryview) -> str:
+    """SHA-256 of the chunks in turn, truncated to 128 bits (hex): the fastest strong hash here (CPUs
+    hash SHA-256 in hardware)."""
+    h = hashlib.sha256()
+    for chunk in chunks:
+        h.update(chunk)
+    return h.hexdigest()[:32]
 
 
 def line_digest(line: str | bytes, seq: int) -> str | None:
@@ -42,14 +46,12 @@ def line_digest(line: str | bytes, seq: int) -> str | None:
     m = _SEQ_FIRST.match(data)
     if m is None or int(m.group(1)) != seq:
         return None
-    h = hashlib.sha256(b"{")
-    h.update(memoryview(data)[m.end():])
-    return h.hexdigest()[:32]
+    return _hex(b"{", memoryview(data)[m.end():])
 
 
 def text_digest(reply: Mapping[str, Any]) -> str:
     """The ``text`` digest of a reply object: the line the reference server sends for it
-    (:func:`agspec.formats.jsonl.compact`), without ``seq``."""
+    (:func:`agspec.formats.jsonl.compact_bytes`), without ``seq``."""
     return _hex(jsonl.compact_bytes({k: v for k, v in reply.items() if k != "seq"}))
 
 
@@ -65,7 +67,7 @@ def canonical_bytes(value: Any) -> bytes:
 
 
 def encoder() -> str:
-    """Which encoder :func:`canonical_bytes` and :func:`~agspec.formats.jsonl.compact` use (part of the key)."""
+    """Which encoder :func:`canonical_bytes` and :func:`~agspec.formats.jsonl.compact_bytes` use (part of the key)."""
     return f"orjson/{jsonl.orjson.__version__}" if jsonl.orjson is not None else "json"
 
 
@@ -84,8 +86,7 @@ def value_digest(reply: Mapping[str, Any]) -> str | None:
 class Golden:
     """One golden trace: ``key`` (what it is the trace of), ``replies`` ((text, value) digests, the
     reset reply first), ``actions`` (the joint action sent before each step reply) and ``summary``
-    (the counts of the passing run it was recorded from: ticks, states, compared, invariant_checks,
-    expectations, event_types)."""
+    (the counts of the passing run it was recorded from, totals and per reply; F-GOLDEN)."""
 
     key: Mapping[str, Any]
     replies: tuple[tuple[str, str], ...]

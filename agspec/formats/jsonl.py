@@ -46,11 +46,6 @@ def compact_bytes(value: Any) -> bytes:
     return json.dumps(value, separators=(",", ":"), ensure_ascii=False, allow_nan=False).encode("utf-8")
 
 
-def compact(value: Any) -> str:
-    """:func:`compact_bytes` as text."""
-    return compact_bytes(value).decode("utf-8")
-
-
 MAX_DEPTH = 64  # F-PROTOCOL-ERRORS: no exchanged JSON value nests deeper (a state is < 10 levels)
 
 
