@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import random
+from itertools import compress
 from typing import Any, Mapping
 
 from agspec.controllers.base import Obs
+from agspec.formats.actions import N_ACTIONS
 
 
 class RandomMaskedController:
@@ -23,6 +25,6 @@ class RandomMaskedController:
     def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]:
         out = {}
         for robot in sorted(observations, key=lambda r: tuple(int(x) for x in r.split(","))):
-            legal = [a for a, ok in enumerate(observations[robot]["mask"]) if ok]
+            legal = list(compress(range(N_ACTIONS), observations[robot]["mask"]))  # ascending legal actions
             out[robot] = self._rng.choice(legal)
         return out

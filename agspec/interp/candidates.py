@@ -150,13 +150,31 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
                     continue
                 if not all(model.adjacent(a, b) for a, b in combinations(helpers, 2)):
                     continue
-                cand = realize(state, model, product, op, members, holders, holder_of)
+                cand = realized(state, model, product, op, members, holders, holder_of)
                 if cand is None:
                     rejected += 1
                 elif cand is not False:
                     out.append(cand)
     out.sort(key=lambda c: (c.pid, c.op.id, c.members))
     return out, rejected
+
+
+REALIZED_LIMIT = 20_000  # the memo starts over past this many entries (bounded memory)
+
+
+def realized(state: State, model: Model, product: Product, op: OperationSpec, members, holders, holder_of):
+    """:func:`realize`, remembered in ``model.realized``: most candidates of an epoch are the previous
+    epoch's, with the same members at the same poses.  The key holds everything ``realize`` reads
+    (the Candidate is immutable, so one object serves every epoch that realizes it)."""
+    key = (product.pid, product.recipe, product.mass, op.id, members, tuple(holder_of[tok] for tok in op.inputs),
+           tuple(state.robots[m].pose for m in members))
+    memo = model.realized
+    if key in memo:
+        return memo[key]
+    if len(memo) >= REALIZED_LIMIT:
+        memo.clear()
+    cand = memo[key] = realize(state, model, product, op, members, holders, holder_of)
+    return cand
 
 
 def realize(state: State, model: Model, product: Product, op: OperationSpec, members, holders, holder_of):

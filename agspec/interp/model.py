@@ -13,6 +13,7 @@ import networkx as nx
 
 from agspec.formats.actions import DIRECTION_NAMES, HANDOFF0, IDLE, N_ACTIONS, RECEIVE0
 from agspec.interp import geometry
+from agspec.interp.state import cell_id
 from agspec.ir import topology, variants
 
 Cell = tuple[int, int]
@@ -231,6 +232,17 @@ class Model:
     def plans(self) -> geometry.PlanMemo:
         """G-MOTION plans of candidates and logistics activities, remembered across epochs (a cache, not state)."""
         return geometry.PlanMemo(self.profile)
+
+    @cached_property
+    def cell_ids(self) -> tuple[str, ...]:
+        """The robot ids "i,j" of ``cells``, in the same row-major order (D-GRID)."""
+        return tuple(cell_id(c) for c in self.cells)
+
+    @cached_property
+    def realized(self) -> dict[tuple, Any]:
+        """R-CANDIDATES realizations remembered across epochs (a cache, not state): a candidate is a pure
+        function of its occurrence, members, holders and the members' poses (agspec.interp.candidates)."""
+        return {}
 
     def adjacent(self, a: Cell, b: Cell) -> bool:
         """G_manip adjacency (D-TOPOLOGY), from agspec.ir.topology."""

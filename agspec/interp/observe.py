@@ -129,12 +129,14 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
 
 IDLE_ONLY = (True,) + (False,) * (N_ACTIONS - 1)  # O-MASK of a robot with no other legal action
 
+Mask = tuple[bool, ...]  # immutable, so the common masks are shared templates (IDLE_ONLY, Model.direction_masks)
 
-def action_mask(state: State, model: Model, cell: Cell, options: Options) -> list[bool]:
+
+def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mask:
     """O-MASK: remove only locally detectable impossibilities; idle is always legal (INV-MASKING)."""
     robot = state.robots[cell]
     if not robot.free(state.t):
-        return list(IDLE_ONLY)
+        return IDLE_ONLY
     n_ops = len(options.operations)
     if robot.supports is not None:
         mask = list(IDLE_ONLY)
@@ -142,28 +144,32 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> lis
             for k, cand in enumerate(options.operations):  # R-SWITCH-LOCK: only the pending candidate
                 if cand.cid == robot.supports:
                     mask[OP0 + k] = True
-            return mask
+            return tuple(mask)
         for k in range(n_ops):
             mask[OP0 + k] = True
-        return mask  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
+        return tuple(mask)  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
     receive, handoff = model.direction_masks[cell]  # idle and the in-grid receive / handoff slots
     if robot.holding is None:
+        if not options.picks and not n_ops:
+            return receive
         mask = list(receive)
         for k in range(len(options.picks)):
             mask[PICK0 + k] = True
     else:
-        mask = list(handoff)
         product = state.products[robot.holding[0]]
         spacing = float(model.profile["spacing"])
-        if (
+        deliver = (
             robot.holding[1] == model.recipes[product.recipe].terminal
             and cell[1] == model.cols - 1
             and geometry.reachable(cell, geometry.output_point(cell[0], model.cols, spacing), float(model.profile["reach"]), spacing)
-        ):
-            mask[DELIVER] = True
+        )
+        if not deliver and not n_ops:
+            return handoff
+        mask = list(handoff)
+        mask[DELIVER] = deliver
     for k in range(n_ops):
         mask[OP0 + k] = True
-    return mask
+    return tuple(mask)
 
 
 def decode(action: int, options: Options) -> tuple[str, Any]:
@@ -231,7 +237,7 @@ def epoch_views(state: State, model: Model, candidates: list[Candidate]) -> Epoc
                       {cand.cid: option_record(cand) for cand in candidates})
 
 
-def observation(state: State, model: Model, cell: Cell, options: Options, mask: list[bool],
+def observation(state: State, model: Model, cell: Cell, options: Options, mask: Mask,
                 views: EpochViews | None = None) -> dict[str, Any]:
     """O-OBSERVATION: own state, Moore neighbours' task-level state, options, mask, own support.
 
@@ -267,5 +273,5 @@ def observation(state: State, model: Model, cell: Cell, options: Options, mask: 
         "pick_options": [{k: v for k, v in p.items() if not k.startswith("_")} for p in options.picks]
         if options.picks else [],
         "operation_options": ops,
-        "mask": mask,
+        "mask": list(mask),
     }

@@ -16,7 +16,7 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, logically_ready_occurrences, inputs_present
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, N_ACTIONS, Options, action_mask, build_options, decode, epoch_views, observation
+from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_mask, build_options, decode, epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
 
@@ -27,7 +27,7 @@ class Decision:
     candidates: list[Candidate]
     by_id: dict[str, Candidate]
     options: dict[Cell, Options]
-    masks: dict[Cell, list[bool]]
+    masks: dict[Cell, Mask]
     rejected: int
     compatibility: Compatibility | None = None  # M-CAPACITY's weight-free part, once it is needed
 
@@ -101,7 +101,7 @@ class Simulator:
         return self.state.t
 
     def agents(self) -> list[str]:
-        return [cell_id(c) for c in self.model.cells]
+        return list(self.model.cell_ids)
 
     def observe(self, robot: str | None = None) -> dict[str, dict[str, Any]] | dict[str, Any]:
         """O-OBSERVATION for one robot, or for all robots keyed by robot id."""
@@ -135,7 +135,7 @@ class Simulator:
         """Apply one joint action (robot id -> action int, or a list in row-major order)."""
         state, model, d = self.state, self.model, self.decision
         if isinstance(joint_action, Mapping):
-            actions = {c: int(joint_action.get(cell_id(c), IDLE)) for c in model.cells}
+            actions = {c: int(joint_action.get(r, IDLE)) for c, r in zip(model.cells, model.cell_ids)}
         else:
             actions = {c: int(a) for c, a in zip(model.cells, joint_action)}
         result = StepResult(t=state.t)
@@ -151,16 +151,16 @@ class Simulator:
 
         # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
         decoded: dict[Cell, tuple[str, Any]] = {}  # robots that start something (idle decodes to no activity)
-        for c in model.cells:
+        for c, robot_id in zip(model.cells, model.cell_ids):
             a = actions[c]
             if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")
                 if a != IDLE:
                     rules.bump(state, "unmasked_invalid_attempts")
-                events.append({"type": "action_coerced", "robot": cell_id(c), "action": a})
+                events.append({"type": "action_coerced", "robot": robot_id, "action": a})
                 a = IDLE
-            result.applied[cell_id(c)] = a
+            result.applied[robot_id] = a
             if a != IDLE:
                 decoded[c] = decode(a, d.options[c])
 

@@ -31,10 +31,11 @@ from agspec.marl.encoding import (
     robot_features,
     str_hash,
 )
-from agspec.interp.observe import N_ACTIONS, PICK_SLOTS, OP_SLOTS
+from agspec.interp.observe import IDLE_ONLY, N_ACTIONS, NO_OPTIONS, OP_SLOTS, PICK_SLOTS
 
 _PICKS_AT = SELF_DIM + 8 * NEIGHBOUR_DIM + COUNTS_DIM
 _OPS_AT = _PICKS_AT + PICK_SLOTS * PICK_DIM
+_ZERO_ROW = [0.0] * NEIGHBOUR_DIM
 
 
 class BatchEncoder:
@@ -52,10 +53,17 @@ class BatchEncoder:
                 self.neighbours[k, d] = index[nc]
         span_r, span_c = pub.spans
         self.position = np.array([[_frac(i, span_r), _frac(j, span_c)] for i, j in self.cells], dtype=np.float64)
+        # robot_features is pure and a robot's inputs rarely change between steps: one row per distinct input
+        self._rows: dict[tuple, list[float]] = {}
+        self._slots: dict[tuple, tuple[object, list[float]]] = {}
+        shared = [IDLE_ONLY, *(m for pair in model.direction_masks.values() for m in pair)]
+        self._template_bytes = {id(m): (m, bytes(m)) for m in shared}
 
     def _robot_table(self, state: State) -> np.ndarray:
         """Per robot: the features its neighbours see of it (robot_features), plus a zero row."""
-        model, t = self.model, state.t
+        model, t, memo = self.model, state.t, self._rows
+        if len(memo) > 4096:  # bounded: products ids grow over an episode
+            memo.clear()
         rows = []
         for c in self.cells:
             robot = state.robots[c]
@@ -66,14 +74,35 @@ class BatchEncoder:
                 terminal = model.recipes[state.products[item[0]].recipe].terminal
                 cls = 3 if item[1] == terminal else (1 if item[1] in self.pub.raw_tokens else 2)
                 product = item[0]
-            rows.append(robot_features(cls, product, not robot.free(t), False, robot.op_label, robot.role_label))
-        rows.append([0.0] * NEIGHBOUR_DIM)
+            key = (cls, product, not robot.free(t), robot.op_label, robot.role_label)
+            row = memo.get(key)
+            if row is None:
+                row = memo[key] = robot_features(cls, product, key[2], False, robot.op_label, robot.role_label)
+            rows.append(row)
+        rows.append(_ZERO_ROW)
         return np.array(rows, dtype=np.float64)
+
+    def _operation_slot(self, cand, cell, frac: float, pending: bool) -> list[float]:
+        """operation_features of one option slot, remembered per candidate object: candidates are immutable
+        and the interpreter hands out the same object while its realization is unchanged.  The entry keeps
+        the candidate alive, so its id is never reused while the entry exists."""
+        key = (id(cand), cell, frac, pending)
+        entry = self._slots.get(key)
+        if entry is not None and entry[0] is cand:
+            return entry[1]
+        if len(self._slots) > 4096:
+            self._slots.clear()
+        row = operation_features(cand.op.id, cand.op.type, cand.op.kmin, cand.size,
+                                 next(r for m, r in cand.roles if m == cell), cand.plan.duration,
+                                 cand.plan.min_reach_margin, frac, cand.pid, cand.recipe, pending, cand.members,
+                                 cell, self.pub)
+        self._slots[key] = (cand, row)
+        return row
 
     def encode(self, state: State, options, masks) -> tuple[np.ndarray, np.ndarray]:
         """(observations float32 [robots, OBS_DIM], action masks int8 [robots, N_ACTIONS]).
 
-        ``options`` and ``masks`` are the decision snapshot's per-cell Options and O-MASK lists.
+        ``options`` and ``masks`` are the decision snapshot's per-cell Options and O-MASK tuples.
         """
         n = len(self.cells)
         table = self._robot_table(state)
@@ -89,6 +118,8 @@ class BatchEncoder:
         span_r = self.pub.spans[0]
         for k, c in enumerate(self.cells):
             opts = options[c]
+            if opts is NO_OPTIONS:  # most robots, most steps: counts and slots stay zero
+                continue
             out[k, counts] = len(opts.picks) / PICK_SLOTS
             out[k, counts + 1] = len(opts.operations) / OP_SLOTS
             if opts.picks:
@@ -97,10 +128,11 @@ class BatchEncoder:
             if opts.operations:
                 out[k, _OPS_AT:_OPS_AT + OP_DIM * len(opts.operations)] = [
                     v for cand, frac in zip(opts.operations, opts.supports)
-                    for v in operation_features(cand.op.id, cand.op.type, cand.op.kmin, cand.size,
-                                                next(r for m, r in cand.roles if m == c), cand.plan.duration,
-                                                cand.plan.min_reach_margin, frac, cand.pid, cand.recipe,
-                                                cand.cid == supports[k], cand.members, c, self.pub)]
-        # bytes() of a list of bools is its 0/1 bytes: the cheapest way from the interpreter's lists to int8
-        mask = np.frombuffer(bytearray(b"".join(bytes(masks[c]) for c in self.cells)), dtype=np.int8)
+                    for v in self._operation_slot(cand, c, frac, cand.cid == supports[k])]
+        # bytes() of a tuple of bools is its 0/1 bytes; most masks are the model's shared templates, whose
+        # bytes are computed once (looked up by identity: the templates live as long as the model)
+        templates = self._template_bytes
+        mask = np.frombuffer(bytearray(b"".join(
+            templates[id(m)][1] if id(m) in templates and templates[id(m)][0] is m else bytes(m)
+            for m in (masks[c] for c in self.cells))), dtype=np.int8)
         return out, mask.reshape(n, N_ACTIONS)

@@ -16,7 +16,6 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from agspec.interp.observe import N_ACTIONS
-from agspec.interp.state import cell_id
 from agspec.interp.tick import Simulator
 from agspec.marl.batch import BatchEncoder
 from agspec.marl.encoding import OBS_DIM, PublicInfo, encode_state, state_dim
@@ -73,6 +72,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
             # spaces are per agent and must stay the same objects (A-PZ-SPACES)
             raise AdapterError("a new instance must keep the grid size of the environment's scenario")
         self.possible_agents = agents
+        self._agent_set = frozenset(agents)
         self.agents = []
         if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
             self._observation_spaces = {a: spaces.Dict({
@@ -124,17 +124,22 @@ class AssemblyGridParallelEnv(ParallelEnv):
 
     def supporting(self) -> dict[str, bool]:
         """Which robots hold a pending support now (the c_sup input of A-REWARD-MILESTONE)."""
-        return {cell_id(c): r.supports is not None for c, r in self.sim.state.robots.items()}
+        robots = self.sim.state.robots
+        return {agent: robots[c].supports is not None for agent, c in zip(self.possible_agents, self.sim.model.cells)}
 
     def step(self, actions: Mapping[str, Any]):
         """A-PZ-STEP: one decision epoch; agents missing from ``actions`` idle."""
         if not self.agents:
             raise AdapterError("step() after the episode ended; call reset()")
-        unknown = [a for a in actions if a not in self.possible_agents]
+        known = self._agent_set
+        unknown = [a for a in actions if a not in known]
         if unknown:
             raise AdapterError(f"unknown agent(s) {unknown}; agents are robot ids such as {self.possible_agents[0]!r}")
         joint = {}
         for agent, value in actions.items():
+            if type(value) is int:  # the common case, without NumPy's round trip
+                joint[agent] = value
+                continue
             try:
                 joint[agent] = int(np.asarray(value).item())
             except (TypeError, ValueError):

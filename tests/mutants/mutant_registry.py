@@ -388,10 +388,10 @@ def mask_hides(session: Session) -> None:
     orig = observe.action_mask
 
     def action_mask(state, model, cell, options):
-        mask = orig(state, model, cell, options)
+        mask = list(orig(state, model, cell, options))  # masks are immutable tuples
         for d in (1, 3, 5, 7):  # BUG: von Neumann thinking on a Moore grid
             mask[observe.RECEIVE0 + d] = False
-        return mask
+        return tuple(mask)
 
     tick.action_mask = action_mask
 
