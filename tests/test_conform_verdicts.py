@@ -446,3 +446,44 @@ def test_an_illegal_symbolic_action_is_one_behaviour_in_conform_and_diff():
     finally:
         pair.close()
     assert run.invalid and run.divergence is None and run.actions == []
+
+
+# --------------------------------------------------------------------------- reply pipes
+
+
+SERVE = [sys.executable, "-c", "from agspec.cli.main import main; main()", "serve"]
+
+
+@pytest.mark.skipif(not hasattr(__import__("fcntl"), "F_GETPIPE_SZ"), reason="pipe sizes are Linux-only")
+def test_the_reply_pipe_holds_several_pipelined_replies():
+    """~100 KB replies: a 64 KiB pipe would block the simulator on every pipelined reply (F-GOLDEN)."""
+    import fcntl
+
+    impl = SubprocessImpl(SERVE, timeout=20.0)
+    try:
+        impl.start()
+        assert fcntl.fcntl(impl.proc.stdout.fileno(), fcntl.F_GETPIPE_SZ) == SubprocessImpl.PIPE_BYTES
+    finally:
+        impl.close()
+
+
+def test_a_pipe_size_the_os_refuses_falls_back_to_the_default_pipe(monkeypatch):
+    real = subprocess.Popen
+    refused = []
+
+    def popen(*args, **kwargs):
+        if "pipesize" in kwargs:
+            refused.append(kwargs["pipesize"])
+            raise PermissionError(1, "Operation not permitted")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(subprocess, "Popen", popen)
+    impl = SubprocessImpl(SERVE, timeout=20.0)
+    try:
+        assert impl.start()["protocol"] == protocol.PROTOCOL and refused == [SubprocessImpl.PIPE_BYTES]
+    finally:
+        impl.close()
+    missing = SubprocessImpl(["/nonexistent/simulator"], timeout=5.0)
+    with pytest.raises(protocol.ProtocolError) as info:
+        missing.start()
+    assert info.value.code == "spawn"

@@ -345,6 +345,7 @@ class SubprocessImpl(Implementation):
 
     STDERR_KEEP = 65536
     PIPELINE = 8  # F-GOLDEN: step requests a golden replay keeps in flight
+    PIPE_BYTES = 1 << 20  # pipe and read-buffer size (Linux default pipe-max-size)
 
     def __init__(self, command: str | list[str], timeout: float = 5.0, *, max_restarts: int = 10,
                  cwd: str | None = None, env: Mapping[str, str] | None = None, **kw: Any):
@@ -369,12 +370,18 @@ class SubprocessImpl(Implementation):
         if self.restarts > self.max_restarts:
             raise ProtocolError("gave_up", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
                                 stderr=self.stderr_tail())
-        try:
-            self.proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=subprocess.PIPE, cwd=self.cwd, env=self.env,
-                                         start_new_session=True)
-        except (OSError, ValueError) as exc:
-            raise ProtocolError("spawn", f"cannot start `{self.spec}`: {exc}")
+        # Replies with every observation run to ~100 KB: a 1 MiB pipe and read buffer let the simulator
+        # write several pipelined replies ahead instead of blocking on a 64 KiB pipe (F-GOLDEN).  Where
+        # the pipe size cannot be set (another OS, a per-user limit) the default pipe serves.
+        for pipes in ({"pipesize": self.PIPE_BYTES, "bufsize": self.PIPE_BYTES}, {}):
+            try:
+                self.proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                             stderr=subprocess.PIPE, cwd=self.cwd, env=self.env,
+                                             start_new_session=True, **pipes)
+                break
+            except (OSError, ValueError) as exc:
+                if not pipes:
+                    raise ProtocolError("spawn", f"cannot start `{self.spec}`: {exc}")
         self._lines = queue.Queue()
         with self._lock:
             self._stderr.clear()
