@@ -1,6 +1,7 @@
 """Conformance overhead: `agspec conform --impl reference` over plain runs of the same episodes.
 
-Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--impl SPEC ...] [--reps N] [--quick] [--json]
+Usage:  python benchmarks/bench_conform.py [--ticks 400] [--episodes 1] [--impl SPEC ...] [--reps N] [--no-live]
+                                          [--quick] [--json]
         python benchmarks/bench_conform.py --full-suite [--baseline-python PY] [--json]
 
 Both sides are cold processes, so start-up is included on both:
@@ -25,6 +26,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 from _common import agspec_cmd, baseline_python, ratio_table
@@ -49,7 +51,6 @@ for name in scenarios:
 def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]:
     """Wall time and the peak RSS (MiB) of this one child, from os.wait4's own rusage."""
     import os
-    import tempfile
     import time
 
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
@@ -65,7 +66,6 @@ def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]
 
 
 def full_suite(args) -> None:
-    import tempfile
 
     conform = ["conform", "--impl", "reference", "--format", "json"]
     rows = []
@@ -102,6 +102,8 @@ def main() -> None:
     ap.add_argument("--impl", action="append", default=None,
                     help='implementation under test (repeatable; default: reference and "agspec serve")')
     ap.add_argument("--reps", type=int, default=1, help="runs per row (median)")
+    ap.add_argument("--no-live", action="store_true",
+                    help="skip the live runs; the cold run happens once and the warm runs reuse its cache")
     ap.add_argument("--quick", action="store_true", help="2 scenarios x 40 ticks (CI smoke)")
     ap.add_argument("--full-suite", action="store_true", help="peak RSS and wall time of a default conform run")
     ap.add_argument("--baseline-python", default=None, help="Python of the baseline release's venv")
@@ -118,7 +120,6 @@ def main() -> None:
     if args.full_suite:
         full_suite(args)
         return
-    import tempfile
 
     select = []
     if args.scenario:
@@ -126,22 +127,33 @@ def main() -> None:
     n_scen = len(args.scenario) if args.scenario else 9
     ticks_total = n_scen * args.episodes * args.ticks
     plain_cmd = [sys.executable, "-c", PLAIN, str(args.ticks), str(args.episodes), *(args.scenario or [])]
-    plains = [_measure(plain_cmd) for _ in range(args.reps)]
+    # F-GOLDEN: live (no cache), cold (an empty cache: the run records), warm (the recorded traces reused).
+    # Each repetition measures the plain runs and every conform run back to back, so a machine whose
+    # speed drifts over minutes affects both sides of a ratio alike.
+    plains = []
+    measured = {impl: {"live": [], "cold": [], "warm": []} for impl in impls}
+    with tempfile.TemporaryDirectory() as caches:
+        for rep in range(args.reps):
+            plains.append(_measure(plain_cmd))
+            for k, impl in enumerate(impls):
+                base = [*agspec_cmd(), "conform", "--impl", impl, "--no-suite", "--episodes", str(args.episodes),
+                        "--ticks", str(args.ticks), "--format", "json", *select]
+                modes = measured[impl]
+                if not args.no_live:
+                    modes["live"].append(_measure([*base, "--golden-cache", "off"]))
+                cache = str(Path(caches) / f"{k}-{rep}")
+                if rep == 0 or not args.no_live:  # with --no-live, the first repetition's cache serves the rest
+                    modes["cold"].append(_measure([*base, "--golden-cache", cache]))
+                modes["warm"].append(_measure([*base, "--golden-cache", str(Path(caches) / f"{k}-0") if args.no_live
+                                               else cache]))
     plain_s, plain_peak = _median([p[0] for p in plains]), max(p[2] for p in plains)
     rows = [{"side": "plain run_episode", "mode": "", "wall_s": plain_s, "ratio": 1.0, "ms_per_tick": 1000 * plain_s / ticks_total,
              "exit_code": plains[0][1].returncode, "peak_rss_mib": plain_peak, "target": None}]
     failures = {}
     for impl in impls:
-        base = [*agspec_cmd(), "conform", "--impl", impl, "--no-suite", "--episodes", str(args.episodes),
-                "--ticks", str(args.ticks), "--format", "json", *select]
-        # F-GOLDEN: live (no cache), cold (an empty cache: the run records), warm (the recorded traces reused)
-        modes = {"live": [], "cold": [], "warm": []}
-        for _ in range(args.reps):
-            modes["live"].append(_measure([*base, "--golden-cache", "off"]))
-            with tempfile.TemporaryDirectory() as cache:
-                modes["cold"].append(_measure([*base, "--golden-cache", cache]))
-                modes["warm"].append(_measure([*base, "--golden-cache", cache]))
-        for mode, runs in modes.items():
+        for mode, runs in measured[impl].items():
+            if not runs:
+                continue
             wall = _median([r[0] for r in runs])
             code = runs[0][1].returncode
             rows.append({"side": f"conform --impl {impl}", "mode": mode, "wall_s": wall, "ratio": wall / plain_s,
