@@ -36,6 +36,7 @@ from agspec.interp.observe import IDLE_ONLY, N_ACTIONS, NO_OPTIONS, OP_SLOTS, PI
 _PICKS_AT = SELF_DIM + 8 * NEIGHBOUR_DIM + COUNTS_DIM
 _OPS_AT = _PICKS_AT + PICK_SLOTS * PICK_DIM
 _ZERO_ROW = [0.0] * NEIGHBOUR_DIM
+_MEMO_LIMIT = 4096  # entries per memo before it starts over (product ids grow over an episode)
 
 
 class BatchEncoder:
@@ -53,16 +54,18 @@ class BatchEncoder:
                 self.neighbours[k, d] = index[nc]
         span_r, span_c = pub.spans
         self.position = np.array([[_frac(i, span_r), _frac(j, span_c)] for i, j in self.cells], dtype=np.float64)
-        # robot_features is pure and a robot's inputs rarely change between steps: one row per distinct input
+        # the slot functions are pure and their inputs rarely change between steps: remembered per input
         self._rows: dict[tuple, list[float]] = {}
         self._slots: dict[tuple, tuple[object, list[float]]] = {}
+        # most O-MASK values are the model's shared templates: their bytes once, found by identity (the
+        # templates live as long as the model)
         shared = [IDLE_ONLY, *(m for pair in model.direction_masks.values() for m in pair)]
         self._template_bytes = {id(m): (m, bytes(m)) for m in shared}
 
     def _robot_table(self, state: State) -> np.ndarray:
         """Per robot: the features its neighbours see of it (robot_features), plus a zero row."""
         model, t, memo = self.model, state.t, self._rows
-        if len(memo) > 4096:  # bounded: products ids grow over an episode
+        if len(memo) > _MEMO_LIMIT:
             memo.clear()
         rows = []
         for c in self.cells:
@@ -90,7 +93,7 @@ class BatchEncoder:
         entry = self._slots.get(key)
         if entry is not None and entry[0] is cand:
             return entry[1]
-        if len(self._slots) > 4096:
+        if len(self._slots) > _MEMO_LIMIT:
             self._slots.clear()
         row = operation_features(cand.op.id, cand.op.type, cand.op.kmin, cand.size,
                                  next(r for m, r in cand.roles if m == cell), cand.plan.duration,
@@ -98,6 +101,11 @@ class BatchEncoder:
                                  cell, self.pub)
         self._slots[key] = (cand, row)
         return row
+
+    def _mask_bytes(self, mask) -> bytes:
+        """bytes() of a tuple of bools is its 0/1 bytes."""
+        entry = self._template_bytes.get(id(mask))
+        return entry[1] if entry is not None and entry[0] is mask else bytes(mask)
 
     def encode(self, state: State, options, masks) -> tuple[np.ndarray, np.ndarray]:
         """(observations float32 [robots, OBS_DIM], action masks int8 [robots, N_ACTIONS]).
@@ -129,10 +137,5 @@ class BatchEncoder:
                 out[k, _OPS_AT:_OPS_AT + OP_DIM * len(opts.operations)] = [
                     v for cand, frac in zip(opts.operations, opts.supports)
                     for v in self._operation_slot(cand, c, frac, cand.cid == supports[k])]
-        # bytes() of a tuple of bools is its 0/1 bytes; most masks are the model's shared templates, whose
-        # bytes are computed once (looked up by identity: the templates live as long as the model)
-        templates = self._template_bytes
-        mask = np.frombuffer(bytearray(b"".join(
-            templates[id(m)][1] if id(m) in templates and templates[id(m)][0] is m else bytes(m)
-            for m in (masks[c] for c in self.cells))), dtype=np.int8)
+        mask = np.frombuffer(bytearray(b"".join(self._mask_bytes(masks[c]) for c in self.cells)), dtype=np.int8)
         return out, mask.reshape(n, N_ACTIONS)
