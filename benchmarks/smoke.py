@@ -22,7 +22,7 @@ QUICK = [
     ["bench_kstar_visited.py", "--indices", "1000", "--ticks", "30", "--scenario", "coalition-medium",
      "--controller", "greedy"],
     ["bench_marl.py", "--steps", "20", "--scenario", "coalition-medium"],
-    ["bench_episodes.py", "--controller", "greedy"],
+    ["bench_episodes.py", "--controller", "greedy", "--floor"],
 ]
 
 if __name__ == "__main__":
