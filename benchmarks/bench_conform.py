@@ -8,7 +8,7 @@ Both sides are cold processes, so start-up is included on both:
   conform:  agspec conform --impl reference --no-suite --episodes E --ticks T
             (F-CONFORM-EPISODES: each official scenario at index 0, greedy plus E-1 seeded random)
   plain:    the same episodes through agspec.evaluate.run_episode (what `agspec run` does), one process.
-ratio = conform / plain (targets: ≤ 1.5 for the reference in process, ≤ 2 for `--impl "agspec serve"`,
+ratio = conform / plain in wall time (targets: ≤ 1.5 for the reference in process, ≤ 2 for `--impl "agspec serve"`,
 whose per-tick protocol cost — encode, pipe, decode — is then part of the figure; ms/tick shows it).  Peak memory of each is the child's max RSS.
 If `agspec conform` does not exist in this build, the benchmark says so and exits 0.
 ``--full-suite`` instead measures a default `agspec conform --impl reference` (suite and episodes) —
@@ -48,8 +48,10 @@ for name in scenarios:
 """
 
 
-def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]:
-    """Wall time and the peak RSS (MiB) of this one child, from os.wait4's own rusage."""
+def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float, float]:
+    """Wall time, the peak RSS (MiB) and the CPU seconds (user + system) of this one child, from
+    os.wait4's own rusage — which also counts the processes it started and waited for (a simulator
+    process of ``--impl``).  CPU time is what load from other processes disturbs least."""
     import os
     import time
 
@@ -62,7 +64,7 @@ def _measure(cmd: list[str]) -> tuple[float, subprocess.CompletedProcess, float]
         out.seek(0)
         err.seek(0)
         done = subprocess.CompletedProcess(cmd, proc.returncode, out.read(), err.read())
-    return seconds, done, usage.ru_maxrss / 1024
+    return seconds, done, usage.ru_maxrss / 1024, usage.ru_utime + usage.ru_stime
 
 
 def full_suite(args) -> None:
@@ -71,13 +73,13 @@ def full_suite(args) -> None:
     rows = []
     baseline = baseline_python(args.baseline_python)
     if baseline:
-        seconds, proc, peak = _measure([baseline, "-c", "from agspec.cli.main import main; main()", *conform])
+        seconds, proc, peak, _ = _measure([baseline, "-c", "from agspec.cli.main import main; main()", *conform])
         rows.append({"side": "baseline", "golden": "", "wall_s": seconds, "exit_code": proc.returncode,
                      "peak_rss_mib": peak})
     with tempfile.TemporaryDirectory() as cache:
         # F-GOLDEN: the items record their golden traces (cold) and reuse them (warm)
         for mode, flag in (("off", "off"), ("cold", cache), ("warm", cache)):
-            seconds, proc, peak = _measure([*agspec_cmd(), *conform, "--golden-cache", flag])
+            seconds, proc, peak, _ = _measure([*agspec_cmd(), *conform, "--golden-cache", flag])
             rows.append({"side": "new", "golden": mode, "wall_s": seconds, "exit_code": proc.returncode,
                          "peak_rss_mib": peak})
     if args.json:
@@ -147,16 +149,19 @@ def main() -> None:
                 modes["warm"].append(_measure([*base, "--golden-cache", str(Path(caches) / f"{k}-0") if args.no_live
                                                else cache]))
     plain_s, plain_peak = _median([p[0] for p in plains]), max(p[2] for p in plains)
-    rows = [{"side": "plain run_episode", "mode": "", "wall_s": plain_s, "ratio": 1.0, "ms_per_tick": 1000 * plain_s / ticks_total,
+    plain_cpu = _median([p[3] for p in plains])
+    rows = [{"side": "plain run_episode", "mode": "", "wall_s": plain_s, "ratio": 1.0, "cpu_s": plain_cpu,
+             "cpu_ratio": 1.0, "ms_per_tick": 1000 * plain_s / ticks_total,
              "exit_code": plains[0][1].returncode, "peak_rss_mib": plain_peak, "target": None}]
     failures = {}
     for impl in impls:
         for mode, runs in measured[impl].items():
             if not runs:
                 continue
-            wall = _median([r[0] for r in runs])
+            wall, cpu = _median([r[0] for r in runs]), _median([r[3] for r in runs])
             code = runs[0][1].returncode
             rows.append({"side": f"conform --impl {impl}", "mode": mode, "wall_s": wall, "ratio": wall / plain_s,
+                         "cpu_s": cpu, "cpu_ratio": cpu / plain_cpu,
                          "ms_per_tick": 1000 * wall / ticks_total, "exit_code": code,
                          "peak_rss_mib": max(r[2] for r in runs),
                          "target": (1.5 if impl == "reference" else 2.0) if mode == "warm" else None})
@@ -177,7 +182,8 @@ def main() -> None:
         return
     ratio_table(f"conform over plain runs of the same episodes ({ticks_total} ticks; median of {args.reps})", rows,
                 [("side", "run"), ("mode", "golden"), ("wall_s", "wall s"), ("ms_per_tick", "ms/tick"),
-                 ("ratio", "ratio"), ("target", "target"), ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
+                 ("ratio", "ratio"), ("target", "target"), ("cpu_s", "CPU s"), ("cpu_ratio", "CPU ratio"),
+                 ("exit_code", "exit"), ("peak_rss_mib", "peak RSS MiB")])
     for mode, ms in protocol_ms.items():
         print(f"protocol cost per tick ({mode}; encode, pipe, decode and the process start-up = agspec serve minus in process): {ms:.2f} ms")
 
