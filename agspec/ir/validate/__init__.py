@@ -1,5 +1,6 @@
-"""Semantic checks on IR documents, one module per spec chapter: ``recipe`` (02, RC-*), ``profile``
-(03, PR-*), ``scenario`` and ``realization`` (04, S-*), helpers in ``common``; this module dispatches.
+"""Semantic checks on IR documents, one module per spec chapter: ``recipe`` (02, RC-*; with the
+per-route ``material`` checks and the recipe ``view``), ``profile`` (03, PR-*), ``scenario`` and
+``realization`` (04, S-*), helpers in ``common``; this module dispatches.
 
 Every check returns :class:`~agspec.diagnostics.Issue` values located by a JSON Pointer into the
 IR, so that the CLI can place them in the ``.ag`` source through the source map.  All problems of a
