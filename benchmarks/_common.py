@@ -9,7 +9,10 @@ import shutil
 import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Any, Sequence
+
+ROOT = Path(__file__).resolve().parents[1]  # this checkout
 
 
 def agspec_cmd() -> list[str]:
@@ -69,15 +72,32 @@ BASELINE_ENV = "AGSPEC_BASELINE_PYTHON"
 
 def baseline_python(given: str | None) -> str | None:
     """The Python of a virtual environment with the baseline release installed (``--baseline-python``
-    or $AGSPEC_BASELINE_PYTHON), or None: the scripts then print this build's figures only."""
+    or $AGSPEC_BASELINE_PYTHON), or None: the scripts then print this build's figures only.
+
+    Refused when that Python imports this checkout's ``agspec`` (the baseline installed from this
+    directory, say): the "baseline" figures would then be this build's."""
     import os
+    from pathlib import Path
 
     path = given or os.environ.get(BASELINE_ENV)
     if not path:
         return None
     if not os.path.exists(path):
         raise SystemExit(f"baseline python {path!r} does not exist (see docs/performance.md)")
+    probe = subprocess.run([path, "-P", "-c", "import agspec; print(agspec.__file__)"], capture_output=True,
+                           text=True, cwd=ROOT)
+    if probe.returncode != 0:
+        raise SystemExit(f"baseline python {path!r} cannot import agspec: {probe.stderr.strip()[-500:]}")
+    if Path(probe.stdout.strip()).resolve().is_relative_to(ROOT):
+        raise SystemExit(f"baseline python {path!r} imports this checkout's agspec ({probe.stdout.strip()}), "
+                         "not the baseline release's: install the baseline from its own directory")
     return path
+
+
+def baseline_cli(python: str) -> list[str]:
+    """The baseline's CLI as a fresh process.  ``-P``: the working directory (this checkout, where the
+    benchmarks run) is not put first on the module path, so the baseline's own agspec is imported."""
+    return [python, "-P", "-c", "from agspec.cli.main import main; main()"]
 
 
 def run_json(python: str, script: str, args: Sequence[str]) -> dict[str, Any]:

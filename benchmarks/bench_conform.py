@@ -29,7 +29,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _common import agspec_cmd, baseline_python, ratio_table
+from _common import agspec_cmd, baseline_cli, baseline_python, ratio_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,7 +73,7 @@ def full_suite(args) -> None:
     rows = []
     baseline = baseline_python(args.baseline_python)
     if baseline:
-        seconds, proc, peak, _ = _measure([baseline, "-c", "from agspec.cli.main import main; main()", *conform])
+        seconds, proc, peak, _ = _measure([*baseline_cli(baseline), *conform])
         rows.append({"side": "baseline", "golden": "", "wall_s": seconds, "exit_code": proc.returncode,
                      "peak_rss_mib": peak})
     with tempfile.TemporaryDirectory() as cache:

@@ -16,7 +16,7 @@ import argparse
 import json
 from pathlib import Path
 
-from _common import agspec_cmd, baseline_python, children_peak_mib, emit, ratio_table, timed_run
+from _common import agspec_cmd, baseline_cli, baseline_python, children_peak_mib, emit, ratio_table, timed_run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +37,7 @@ def main() -> None:
         scope = "9 scenarios x 4 controllers x 50 instances x 400 ticks"
     baseline = baseline_python(args.baseline_python)
     if baseline:
-        base_cmd = [baseline, "-c", "from agspec.cli.main import main; main()", *cmd[len(agspec_cmd()):]]
+        base_cmd = [*baseline_cli(baseline), *cmd[len(agspec_cmd()):]]
         base_s, base_proc = timed_run(base_cmd, cwd=ROOT)
     seconds, proc = timed_run(cmd, cwd=ROOT)
     episodes = len(json.loads(proc.stdout)["runs"]) if proc.returncode == 0 else None
