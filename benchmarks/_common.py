@@ -150,5 +150,5 @@ def _fmt(v: Any) -> str:
     if isinstance(v, bool):
         return "yes" if v else "NO"
     if isinstance(v, float):
-        return f"{v:.2f}" if abs(v) < 100 else f"{v:.0f}"
+        return (f"{v:.2g}" if 0 < abs(v) < 0.01 else f"{v:.2f}") if abs(v) < 100 else f"{v:.0f}"
     return "—" if v is None else str(v)

@@ -7,18 +7,43 @@ peak memory is the largest RSS among the CLI process and its (reaped) pool worke
 getrusage(RUSAGE_CHILDREN).  Target: ≤ 60 s on 2 cores.  With a baseline (``--baseline-python`` or
 $AGSPEC_BASELINE_PYTHON) the same command runs with the baseline release too, and the table shows
 both wall times and their ratio (one run each: the full evaluation is long; wall time, since the
-command's own pool is part of what is measured).
+command's own pool is part of what is measured), and how many episodes got exactly the same metrics from
+both builds (matched by scenario, controller and index) with the largest relative difference of a
+metric value: since M-RATIO-FORMS this build computes ``blocked_ready_rate_material`` as (ready −
+feasible) / ready, as the original release does, where the baseline computed 1 − feasible / ready,
+so that value may differ in its last bits.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 from pathlib import Path
 
 from _common import agspec_cmd, baseline_cli, baseline_python, children_peak_mib, emit, ratio_table, timed_run
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def same_metrics(base: subprocess.CompletedProcess, new: subprocess.CompletedProcess) -> dict:
+    """How many episodes got exactly the same metrics from both builds, matched by (scenario,
+    controller, index), and the largest relative difference of a metric value (the JSON texts differ
+    anyway: per-episode wall times, fields added since the baseline)."""
+    if base.returncode != 0 or new.returncode != 0:
+        return {"same_metrics": None, "runs_compared": 0, "max_rel_diff": None}
+    runs = [{(r["scenario"], r["controller"], r["index"]): r.get("metrics") or {} for r in json.loads(p.stdout)["runs"]
+             if not r.get("repeat")} for p in (base, new)]
+    shared = sorted(runs[0].keys() & runs[1].keys())
+    identical, largest = 0, 0.0
+    for k in shared:
+        a, b = runs[0][k], runs[1][k]
+        identical += a == b
+        for name in a.keys() & b.keys():
+            x, y = a[name], b[name]
+            if isinstance(x, (int, float)) and isinstance(y, (int, float)) and x != y:
+                largest = max(largest, abs(x - y) / max(abs(x), abs(y)))
+    return {"same_metrics": f"{identical}/{len(shared)}", "runs_compared": len(shared), "max_rel_diff": largest}
 
 
 def main() -> None:
@@ -48,14 +73,14 @@ def main() -> None:
         row["stderr"] = proc.stderr[-2000:]
     if baseline:
         row.update(baseline_wall_s=base_s, baseline_exit_code=base_proc.returncode, speedup=base_s / seconds,
-                   same_results=base_proc.stdout == proc.stdout)
+                   **same_metrics(base_proc, proc))
         if args.json:
             print(json.dumps({"benchmark": "evaluate", **row}, indent=2))
             return
         ratio_table("full evaluation wall time, baseline and this build (same command)", [row],
                     [("scope", "scope"), ("jobs", "jobs"), ("episodes", "episodes"), ("baseline_wall_s", "baseline s"),
                      ("wall_s", "new s"), ("speedup", "speedup"), ("target_s", "target s"),
-                     ("same_results", "same JSON")])
+                     ("same_metrics", "identical metrics"), ("max_rel_diff", "largest rel. difference")])
         return
     emit({"benchmark": "evaluate", **row}, [row], ("scope", "jobs", "episodes", "wall_s", "episodes_per_s",
                                                    "peak_rss_mib"), "full evaluation wall time", args.json)
