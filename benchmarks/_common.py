@@ -70,27 +70,39 @@ def _cell(v: Any) -> str:
 BASELINE_ENV = "AGSPEC_BASELINE_PYTHON"
 
 
+def _has_our_sources(package_dir: Path) -> bool:
+    """Whether an agspec package holds every Python source of this checkout's, unchanged (an install
+    may add files of its own: packaged data)."""
+    ours = ROOT / "agspec"
+    for path in ours.rglob("*.py"):
+        theirs = package_dir / path.relative_to(ours)
+        if not theirs.is_file() or theirs.read_bytes() != path.read_bytes():
+            return False
+    return True
+
+
 def baseline_python(given: str | None) -> str | None:
     """The Python of a virtual environment with the baseline release installed (``--baseline-python``
     or $AGSPEC_BASELINE_PYTHON), or None: the scripts then print this build's figures only.
 
-    Refused when that Python imports this checkout's ``agspec`` (the baseline installed from this
-    directory, say): the "baseline" figures would then be this build's."""
+    Refused when the agspec that Python imports (as the baseline's CLI is started, from this
+    checkout, :func:`baseline_cli`) has this build's sources — the checkout itself or a copy — since
+    the "baseline" figures would then be this build's."""
     import os
-    from pathlib import Path
 
     path = given or os.environ.get(BASELINE_ENV)
     if not path:
         return None
     if not os.path.exists(path):
         raise SystemExit(f"baseline python {path!r} does not exist (see docs/performance.md)")
-    probe = subprocess.run([path, "-P", "-c", "import agspec; print(agspec.__file__)"], capture_output=True,
-                           text=True, cwd=ROOT)
+    probe = subprocess.run([*baseline_cli(path)[:2], "-c", "import agspec; print(agspec.__file__)"],
+                           capture_output=True, text=True, cwd=ROOT)
     if probe.returncode != 0:
         raise SystemExit(f"baseline python {path!r} cannot import agspec: {probe.stderr.strip()[-500:]}")
-    if Path(probe.stdout.strip()).resolve().is_relative_to(ROOT):
-        raise SystemExit(f"baseline python {path!r} imports this checkout's agspec ({probe.stdout.strip()}), "
-                         "not the baseline release's: install the baseline from its own directory")
+    imported = Path(probe.stdout.strip()).resolve().parent
+    if _has_our_sources(imported):
+        raise SystemExit(f"baseline python {path!r} imports agspec from {imported}, which has this build's "
+                         "sources: install the baseline release in its own environment (see docs/performance.md)")
     return path
 
 
