@@ -29,9 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _common import agspec_cmd, baseline_cli, baseline_python, ratio_table
+from _common import ROOT, agspec_cmd, baseline_cli, baseline_python, ratio_table
 
-ROOT = Path(__file__).resolve().parents[1]
 
 PLAIN = """
 import sys

@@ -19,11 +19,9 @@ from __future__ import annotations
 import argparse
 import json
 import subprocess
-from pathlib import Path
 
-from _common import agspec_cmd, baseline_cli, baseline_python, children_peak_mib, emit, ratio_table, timed_run
+from _common import ROOT, agspec_cmd, baseline_cli, baseline_python, children_peak_mib, emit, ratio_table, timed_run
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def same_metrics(base: subprocess.CompletedProcess, new: subprocess.CompletedProcess) -> dict:
@@ -34,7 +32,7 @@ def same_metrics(base: subprocess.CompletedProcess, new: subprocess.CompletedPro
         return {"same_metrics": None, "runs_compared": 0, "max_rel_diff": None}
     runs = [{(r["scenario"], r["controller"], r["index"]): r.get("metrics") or {} for r in json.loads(p.stdout)["runs"]
              if not r.get("repeat")} for p in (base, new)]
-    shared = sorted(runs[0].keys() & runs[1].keys())
+    shared = runs[0].keys() & runs[1].keys()
     identical, largest = 0, 0.0
     for k in shared:
         a, b = runs[0][k], runs[1][k]

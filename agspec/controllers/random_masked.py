@@ -6,7 +6,7 @@ import random
 from itertools import compress
 from typing import Any, Mapping
 
-from agspec.controllers.base import Obs
+from agspec.controllers.base import Obs, parse_cell
 from agspec.formats.actions import N_ACTIONS
 
 
@@ -26,7 +26,7 @@ class RandomMaskedController:
     def row_major(self, robots: tuple[str, ...]) -> list[str]:
         """The robots in row-major order; the same robots come every epoch, so sorted once."""
         if robots != self._order[0]:
-            self._order = (robots, sorted(robots, key=lambda r: tuple(int(x) for x in r.split(","))))
+            self._order = (robots, sorted(robots, key=parse_cell))
         return self._order[1]
 
     def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]:
