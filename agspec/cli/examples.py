@@ -34,6 +34,7 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "check": ("check flow.jsonl", "check flow.jsonl --format json", "check runs/ -j 2 --report check.jsonl"),
     "trace": ("trace validate flow.jsonl",),
     "trace validate": ("trace validate flow.jsonl --format json",),
+    "explain": ("explain M-RF-BR", "explain RES-TOPOLOGY-LINE AG305", "explain M- --format json"),
     "render": ("render flow.jsonl -o replay.html",
                "render --impl reference --scenario coalition-medium --ticks 60 -o replay.html"),
 }

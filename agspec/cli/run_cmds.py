@@ -15,35 +15,36 @@ from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, SEED_RANGE, emit_json,
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
 
-# Metrics shown by `agspec run` in its table: (key, label, format)
+# Metrics shown by `agspec run` in its table: (key, label, format, spec ID). The ID column is what
+# `agspec explain ID` takes, so every label can be looked up without the paper.
 RUN_ROWS = [
-    ("delivered", "Delivered products (M-DELIVERED)", "d"),
-    ("throughput", "Throughput per tick (M-THROUGHPUT)", ".4f"),
-    ("completion_rate", "Admitted-product completion (M-COMPLETION)", ".3f"),
-    ("release_acceptance", "Release acceptance (M-RELEASE-ACCEPTANCE)", ".3f"),
-    ("demand_fulfillment", "Demand fulfillment (M-DEMAND-FULFILLMENT)", ".3f"),
-    ("lost_releases", "Lost releases (M-LOST-RELEASES)", "d"),
-    ("mean_wip", "Mean WIP (M-MEAN-WIP)", ".3f"),
-    ("restricted_mean_flow_time", "Restricted mean flow time (M-RMFT)", ".2f"),
-    ("makespan", "Batch makespan C_max (M-MAKESPAN)", "d"),
-    ("admissions", "Admissions (M-ADMISSIONS)", "d"),
-    ("admission_failures", "Admission failures (M-ADMISSION-FAILURES)", "d"),
-    ("admission_success", "Admission success, resolved (M-ADM-SUCCESS)", ".3f"),
-    ("admission_latency", "Admission latency, ticks (M-ADMISSION-LATENCY)", ".2f"),
-    ("coalition_success", "Coalition success |U|>=2 (M-COALITION)", ".3f"),
-    ("candidate_switches", "Candidate switches (M-SWITCHES)", "d"),
-    ("blocked_activities", "Blocked activities, all causes (M-BLOCKED)", "d"),
-    ("geometry_blocked", "  geometry-only", "d"),
-    ("resource_blocked", "  resource", "d"),
-    ("robot_blocked", "  robot", "d"),
-    ("robot_occupancy", "Robot occupancy (M-OCCUPANCY)", ".3f"),
-    ("blocked_ready_rate", "Blocked-ready-operation rate (M-RF-BR)", ".3f"),
-    ("no_progress_ticks", "Operational no-progress ticks (M-NO-PROGRESS)", "d"),
-    ("geometry_delay_ticks", "Approach+retreat ticks (M-GEOMETRY-DELAY)", "d"),
-    ("capacity_mean", "Mean capacity K* (M-CAPACITY)", ".3f"),
-    ("realized_concurrency_mean", "Mean realized concurrency (M-REALIZED-CONCURRENCY)", ".3f"),
-    ("utilization", "Concurrency utilization (M-UTILIZATION)", ".3f"),
-    ("capacity_exact_fraction", "Exact K* share of states", ".3f"),
+    ("delivered", "Delivered products", "d", "M-DELIVERED"),
+    ("throughput", "Throughput per tick", ".4f", "M-THROUGHPUT"),
+    ("completion_rate", "Admitted-product completion", ".3f", "M-COMPLETION"),
+    ("release_acceptance", "Release acceptance", ".3f", "M-RELEASE-ACCEPTANCE"),
+    ("demand_fulfillment", "Demand fulfillment", ".3f", "M-DEMAND-FULFILLMENT"),
+    ("lost_releases", "Lost releases", "d", "M-LOST-RELEASES"),
+    ("mean_wip", "Mean work in progress (WIP)", ".3f", "M-MEAN-WIP"),
+    ("restricted_mean_flow_time", "Restricted mean flow time (RMFT)", ".2f", "M-RMFT"),
+    ("makespan", "Batch makespan C_max", "d", "M-MAKESPAN"),
+    ("admissions", "Admissions", "d", "M-ADMISSIONS"),
+    ("admission_failures", "Admission failures", "d", "M-ADMISSION-FAILURES"),
+    ("admission_success", "Admission success, resolved", ".3f", "M-ADM-SUCCESS"),
+    ("admission_latency", "Admission latency, ticks", ".2f", "M-ADMISSION-LATENCY"),
+    ("coalition_success", "Coalition success |U|>=2", ".3f", "M-COALITION"),
+    ("candidate_switches", "Candidate switches", "d", "M-SWITCHES"),
+    ("blocked_activities", "Blocked activities, all causes", "d", "M-BLOCKED"),
+    ("geometry_blocked", "  of which geometry only", "d", "M-BLOCKED"),
+    ("resource_blocked", "  of which resource", "d", "M-BLOCKED"),
+    ("robot_blocked", "  of which robot", "d", "M-BLOCKED"),
+    ("robot_occupancy", "Robot occupancy", ".3f", "M-OCCUPANCY"),
+    ("blocked_ready_rate", "Blocked-ready-operation rate", ".3f", "M-RF-BR"),
+    ("no_progress_ticks", "Operational no-progress ticks", "d", "M-NO-PROGRESS"),
+    ("geometry_delay_ticks", "Approach+retreat ticks", "d", "M-GEOMETRY-DELAY"),
+    ("capacity_mean", "Mean capacity K* (most activities startable at once)", ".3f", "M-CAPACITY"),
+    ("realized_concurrency_mean", "Mean realized concurrency", ".3f", "M-REALIZED-CONCURRENCY"),
+    ("utilization", "Concurrency utilization", ".3f", "M-UTILIZATION"),
+    ("capacity_exact_fraction", "Share of states with K* solved exactly", ".3f", "M-CAPACITY"),
 ]
 
 
@@ -53,6 +54,21 @@ def _fmt(value: Any, spec: str) -> str:
     if spec == "d":
         return str(int(value))
     return format(value, spec)
+
+
+def which_instance(instance: dict[str, Any]) -> str:
+    """One line naming the instance that ran: suite index and split (S-OFFICIAL, S-SPLITS), or its seeds."""
+    from agspec.catalogue import SPLITS
+
+    seeds = instance.get("seeds") or {}
+    index = seeds.get("index")
+    if index is None:
+        seeds = ", ".join(f"{k} {v}" for k, v in sorted(seeds.items()) if v is not None)
+        return f"instance {instance['id']}" + (f" (seeds: {seeds})" if seeds else "")
+    split = next((name for name, r in SPLITS.items() if index in r), None)
+    where = f"{split} split {SPLITS[split].start}-{SPLITS[split].stop - 1}" if split else "outside the named splits"
+    hint = "" if split == "final-test" else "; the paper's tables use the final-test split (--index 1000 to 1049)"
+    return f"instance {instance['id']}: suite index {index} ({where}){hint}"
 
 
 def load_instance(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
@@ -139,19 +155,22 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
         emit_json(result_record(instance, controller, metrics))
         return
     table = Table(title=f"{instance['id']} · {'policy' if spec else 'controller'} {controller} · {metrics['ticks']} ticks"
-                  + (f" · {result.illegal_actions} masked actions run as idle" if result.illegal_actions else ""))
+                  + (f" · {result.illegal_actions} masked actions run as idle" if result.illegal_actions else ""),
+                  caption="`agspec explain ID` prints the definition of each measure")
     table.add_column("Measure")
     table.add_column("Value", justify="right")
-    for key, label, spec in RUN_ROWS:
+    table.add_column("spec ID", style="dim")
+    for key, label, number, ident in RUN_ROWS:
         if key == "makespan" and instance["scenario"]["evaluation"]["mode"] != "batch":
             continue
-        table.add_row(label, _fmt(metrics.get(key), spec))
-    stdout.print(table)
+        table.add_row(label, _fmt(metrics.get(key), number), ident)
+    stdout.print(which_instance(instance))
+    stdout.print(table, soft_wrap=False)
     if trace_path is not None:
         stdout.print(f"trace written to {trace_path}")
 
 
-METRICS = tuple(key for key, _, _ in RUN_ROWS)
+METRICS = tuple(row[0] for row in RUN_ROWS)
 
 
 @click.command("evaluate")
