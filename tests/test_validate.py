@@ -401,6 +401,17 @@ def test_official_scenarios_validate_clean(sid):
     assert validate_scenario(F.official_scenarios()[sid], F.official_resolver()) == []
 
 
+@pytest.mark.parametrize("sid", sorted(F.official_scenarios()))
+def test_a_changed_copy_of_an_official_scenario_that_still_claims_official_is_warned(sid):  # S-OFFICIAL, AG424
+    scenario = copy.deepcopy(F.official_scenarios()[sid])
+    if not scenario.get("suite", {}).get("official"):
+        pytest.skip("the geometry-matched control does not claim to be official")
+    scenario["release"]["wip_cap"] += 1
+    assert found(validate_scenario(scenario, F.official_resolver())) == {("AG424", "/suite/official", W)}
+    scenario["suite"]["official"] = False
+    assert validate_scenario(scenario, F.official_resolver()) == []
+
+
 def test_operation_needing_4_robots_on_a_line_grid_is_rejected():  # S-FEASIBILITY, D-KTOPO
     sc = F.scenario(recipes=("standard_abc",), rows=6, cols=8, topology="line")
     [issue] = validate_scenario(sc, F.official_resolver())

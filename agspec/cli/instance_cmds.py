@@ -231,14 +231,16 @@ def catalogue_list(fmt: str) -> None:
         emit_json(rows)
         return
     table = Table(title="AssemblyGrid v1 catalogue", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=(0, 1), collapse_padding=True,
-                  caption="* geometry-matched control (not official): abstract-v1 variant conflict-<level>")
-    for col in ("family", "level", "grid", "recipe", "WIP", "interval", "fingerprint"):
-        table.add_column(col, no_wrap=True)
+                  caption="the name is what commands take (agspec run NAME); "
+                          "* geometry-matched control (not official): abstract-v1 variant conflict-<level>")
+    # family and level are in the name (`{family}-{level}`, RES-SCENARIO-IDS)
+    for col in ("name", "grid", "recipe", "WIP", "interval", "sha256"):
+        table.add_column(col, no_wrap=True, style="bold" if col == "name" else None)
     for r in rows:
-        cells = (r["family"], r["level"] + ("" if r["official"] else "*"), r["grid"], ", ".join(r["recipes"]),
-                 str(r["wip_cap"]), str(r["interval"]), r["fingerprint"][:15])
+        cells = (r["name"] + ("" if r["official"] else "*"), r["grid"], ", ".join(r["recipes"]),
+                 str(r["wip_cap"]), str(r["interval"]), r["fingerprint"].removeprefix("sha256:")[:8] + "…")
         table.add_row(*(escape(str(c)) for c in cells))
-    stdout.print(table)
+    stdout.print(table, soft_wrap=False)
 
 
 def _current_lock(root: Path | None) -> dict[str, Any]:

@@ -3,10 +3,14 @@ release, evaluation, shelves, products, resources and k_topo coupling."""
 
 from __future__ import annotations
 
+import json
+from functools import lru_cache
 from typing import Mapping
 
 from agspec.diagnostics import Issue
 from agspec.ir import topology, variants
+from agspec.ir.fingerprint import FingerprintError, fingerprint
+from agspec.resources import catalogue_dir
 from agspec.ir.validate.common import (
     Json,
     Resolver,
@@ -26,8 +30,37 @@ from agspec.ir.validate.recipe import arity_of, recipe_view
 
 def validate_scenario(ir: Json, resolver: Resolver) -> list[Issue]:
     """S-*: grid, references, release, evaluation, shelves, products, resources, and the coupling
-    of every recipe's coalition demand with this grid's k_topo (S-FEASIBILITY, D-KTOPO)."""
-    return _validate_scenario(ir, resolver, check_variant=True)
+    of every recipe's coalition demand with this grid's k_topo (S-FEASIBILITY, D-KTOPO); a scenario
+    that claims to be official must be one of the catalogue's (S-OFFICIAL)."""
+    return _validate_scenario(ir, resolver, check_variant=True) + _check_official_claim(_dict(ir))
+
+
+@lru_cache(maxsize=1)
+def _official_fingerprints() -> frozenset[str]:
+    """The fingerprints of the official scenarios in the shipped catalogue lock (F-LOCK)."""
+    try:
+        lock = json.loads((catalogue_dir() / "lock.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return frozenset()
+    return frozenset(entry.get("fingerprint") for entry in _dict(lock.get("scenarios")).values()
+                     if isinstance(entry, dict))
+
+
+def _check_official_claim(scenario: Mapping) -> list[Issue]:
+    """S-OFFICIAL: `suite official` is a claim that results are comparable with the paper's; only the nine
+    catalogue scenarios make it truthfully (a copy with any change has another fingerprint)."""
+    if _dict(scenario.get("suite")).get("official") is not True:
+        return []
+    try:
+        own = fingerprint(scenario)
+    except FingerprintError:
+        return []
+    if own in _official_fingerprints():
+        return []
+    return [_warn("AG424", f"scenario {_q([scenario.get('id')])} claims `suite official` but is not an official "
+                  f"catalogue scenario (its fingerprint {own[:19]}… is none of catalogue/lock.json's): its results "
+                  "would be presented as comparable with the paper's", _ptr("suite", "official"),
+                  "a scenario of your own is `suite unofficial prefix …`; `agspec catalogue list` shows the official ones")]
 
 
 def _validate_scenario(ir: Json, resolver: Resolver, *, check_variant: bool) -> list[Issue]:
