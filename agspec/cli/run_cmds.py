@@ -58,13 +58,16 @@ def _fmt(value: Any, spec: str) -> str:
 
 def which_instance(instance: dict[str, Any]) -> str:
     """One line naming the instance that ran: suite index and split (S-OFFICIAL, S-SPLITS), or its seeds."""
-    from agspec.catalogue import SPLITS
+    from agspec.catalogue import GEOMETRY_MATCHED, OFFICIAL_SCENARIOS, SPLITS
 
     seeds = instance.get("seeds") or {}
     index = seeds.get("index")
     if index is None:
         seeds = ", ".join(f"{k} {v}" for k, v in sorted(seeds.items()) if v is not None)
         return f"instance {instance['id']}" + (f" (seeds: {seeds})" if seeds else "")
+    if instance["scenario"].get("id") not in (*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED):
+        return (f"instance {instance['id']}: suite index {index} (generation seed {seeds.get('generation')}, "
+                f"execution seed {seeds.get('execution')})")
     split = next((name for name, r in SPLITS.items() if index in r), None)
     where = f"{split} split {SPLITS[split].start}-{SPLITS[split].stop - 1}" if split else "outside the named splits"
     hint = "" if split == "final-test" else "; the paper's tables use the final-test split (--index 1000 to 1049)"
