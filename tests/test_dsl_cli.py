@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -130,3 +132,12 @@ def test_fmt_of_json_ir_gives_dsl(tmp_path: Path):
 def test_fmt_refuses_invalid_input(broken: Path):
     result = run("fmt", str(broken))
     assert result.exit_code == 1 and "error[AG350]" in result.stderr and result.stdout == ""
+
+
+def test_validate_keeps_diagnostics_before_the_summary_in_one_pipe(tmp_path):  # F-DIAGNOSTICS
+    bad = tmp_path / "bad.ag"
+    bad.write_text("recipe r {\n  operation a { duration two }\n}\n", encoding="utf-8")
+    good = Path(__file__).resolve().parents[1] / "catalogue" / "recipes" / "pair_assembly.ag"
+    out = subprocess.run([sys.executable, "-m", "agspec.cli.main", "validate", str(bad), str(good)],
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120).stdout
+    assert out.index("error[AG102]") < out.index("status") < out.index("1/2 valid")

@@ -130,6 +130,8 @@ def validate(files: tuple[str, ...], fmt: str, search_paths: tuple[Path, ...], n
         emit_json([diagnostic_json(d) for d in all_diags])
     else:
         print_diagnostics(all_diags, {doc.file: doc.text for doc in docs})
+        # diagnostics (stderr) then the summary (stdout): flushed in that order, so `2>&1 | less` keeps it
+        sys.stderr.flush()
         table = Table(box=box.SIMPLE_HEAD, title=None)
         for col in ("file", "kind", "errors", "warnings", "status"):
             table.add_column(col, justify="right" if col in ("errors", "warnings") else "left",
@@ -143,6 +145,7 @@ def validate(files: tuple[str, ...], fmt: str, search_paths: tuple[Path, ...], n
         out.print(table)
         valid = sum(1 for r in rows if r[4] == "valid")
         stdout.print(f"{valid}/{len(rows)} valid")
+        sys.stdout.flush()
     raise SystemExit(_exit_code(docs, all_diags))
 
 
