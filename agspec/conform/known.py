@@ -13,19 +13,18 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
-from agspec.conform.cases.expectations import event_matches
+from agspec.conform.cases.expectations import event_matches, unmatched_patterns
 from agspec.conform.compare import Divergence, behavioural
 from agspec.conform.eventdiff import differing, event_diff
 from agspec.formats.divergences import by_scope, expect_entry
-from agspec.formats.pointer import iter_differences, resolve
+from agspec.formats.pointer import MISSING, iter_differences, resolve
 
 SPEC = "spec/10-divergences.md"
 
 
 def _covers(patterns: Sequence[Mapping[str, Any]], events: Sequence[Mapping[str, Any]]) -> bool:
-    """Every event matches some pattern and every pattern matches some event."""
-    return (all(any(event_matches(p, e) for p in patterns) for e in events)
-            and all(any(event_matches(p, e) for e in events) for p in patterns))
+    """The events and the patterns match one to one (a pattern matches an event with its fields)."""
+    return len(patterns) == len(events) and not unmatched_patterns(patterns, events)
 
 
 def _events_hold(sig: Mapping[str, Any], diff: Mapping[str, Any]) -> bool:
@@ -41,14 +40,25 @@ def _number(value: Any) -> float | None:
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
 
 
+def _matches(pattern: str, pointer: str) -> bool:
+    """``pattern`` with ``*`` standing for one token names ``pointer``."""
+    want, got = pattern.split("/"), pointer.split("/")
+    return len(want) == len(got) and all(w in ("*", g) for w, g in zip(want, got))
+
+
 def _state_holds(sig: Mapping[str, Any], expected: Any, actual: Any) -> bool:
     for pointer, delta in (sig.get("delta") or {}).items():
         e, a = _number(resolve(expected, pointer)), _number(resolve(actual, pointer))
         if e is None or a is None or a - e != delta:
             return False
-    under = tuple(sig["under"])
-    return all(any(ptr == u or ptr.startswith(u + "/") for u in under)
-               for ptr, _, _ in iter_differences(behavioural(expected), behavioural(actual)))
+    changed, added = tuple(sig.get("changed", ())), tuple(sig.get("added", ()))
+    for ptr, e, _ in iter_differences(behavioural(expected), behavioural(actual)):
+        if any(ptr == c or ptr.startswith(c + "/") for c in changed):
+            continue
+        if e is MISSING and any(_matches(p, ptr) for p in added):
+            continue
+        return False
+    return True
 
 
 def match(div: Divergence | None, expected: Mapping[str, Any], actual: Mapping[str, Any] | None,

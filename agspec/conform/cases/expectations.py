@@ -17,7 +17,7 @@ def event_matches(pattern: Mapping[str, Any], event: Mapping[str, Any]) -> bool:
     return all(k in event and first_difference(v, event[k]) is None for k, v in pattern.items())
 
 
-def _match_events(patterns: Sequence[Mapping[str, Any]], events: Sequence[Mapping[str, Any]]) -> list[int]:
+def unmatched_patterns(patterns: Sequence[Mapping[str, Any]], events: Sequence[Mapping[str, Any]]) -> list[int]:
     """Indices of patterns left unmatched by a maximum one-to-one matching onto events."""
     options = [[j for j, ev in enumerate(events) if event_matches(p, ev)] for p in patterns]
     owner: dict[int, int] = {}
@@ -179,7 +179,7 @@ def mismatches(
             if got is not MISSING:
                 add("absent", pointer, MISSING, got, f"state {pointer}: expected absent, got {show(got)}")
         patterns = exp.get("events", []) if events is not None else []
-        for i in _match_events(patterns, events):
+        for i in unmatched_patterns(patterns, events):
             near = [ev for ev in events if ev.get("type") == patterns[i].get("type")]
             add("event", "", patterns[i], near or list(events),
                 f"no event matches {show(patterns[i])}; events of this type: {show(near)}")
