@@ -38,6 +38,7 @@ from agspec.conform.protocol import ProtocolError, Unsupported
 
 # F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
 LEVEL_PARTS = ("events", "state", "observations", "masks")
+ASSERTED_PARTS = LEVEL_PARTS + ("done",)  # what suite assertions read (RES-ASSERTION-LEVEL)
 
 
 @dataclass(frozen=True)
@@ -237,6 +238,9 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
             return differed
         counts = golden.counts_at(recorded, len(recorded.replies))
         res.ticks = recorded.summary["ticks"]
+        # RES-GOLDEN-IDENTITY: the reference's replies, every part declared: every assertion evaluated
+        for t in range(res.ticks):
+            _count_assertions(res, item, t, None, {"diagnostic_state": True})
     res.states, res.compared = counts["states"], dict(counts["compared"])
     res.invariant_checks, res.event_types = counts["invariant_checks"], set(counts["event_types"])
     res.expectations = counts["expectations"]
@@ -305,6 +309,7 @@ class _Checker:
                 invariants.remember_records(self.ctx, self.prev_rec if t >= 0 else None, target)
             self.res.invariant_checks = self.summary["invariant_checks_by_reply"][t + 1]
             self.res.expectations = self.summary["expectations_by_reply"][t + 1]
+            _count_assertions(self.res, self.item, t, reply, self.impl.capabilities)
         elif _check(self.res, self.item, t, div, reply, self.ctx, self.prev_rec if t >= 0 else None, target,
                     self.opts, self.sent, self.history, self.impl, exp, self.pair_parts):
             return True
@@ -312,6 +317,30 @@ class _Checker:
             self.prev_rec = rec
         self.prev_obs = reply.get("observations")
         return False
+
+
+def _given(reply: Mapping[str, Any], caps: Mapping[str, bool]) -> dict[str, Any]:
+    """RES-ASSERTION-LEVEL: the parts of ``reply`` that assertions may read (None: not declared)."""
+    given = {part: reply.get(part) if caps.get(cap) else None for part, cap in
+             (("state", "privileged_state"), ("events", "events"), ("observations", "observations"),
+              ("masks", "masks"))}
+    if given["events"] is None and caps.get("events"):
+        given["events"] = []
+    return given
+
+
+def _count_assertions(res: Result, item: Item, t: int, reply: Mapping[str, Any] | None,
+                      caps: Mapping[str, bool]) -> None:
+    """Count the assertions after tick ``t`` that the reply lets the harness evaluate, and the rest
+    (``reply`` None: a reply of the reference, which carries every part)."""
+    if item.case is None or t < 0:
+        return
+    available = set(ASSERTED_PARTS) if reply is None else \
+        available_parts(*_given(reply, caps).values(), reply.get("done"))
+    checked, skipped = tally(item.case, t, available, caps.get("diagnostic_state", False))
+    res.assertions_checked += checked
+    for part, n in skipped.items():
+        res.assertions_skipped[part] = res.assertions_skipped.get(part, 0) + n
 
 
 def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, prev_rec, target, opts: Options,
@@ -330,18 +359,10 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
         if exps:
             res.expectations += len(exps)
             # RES-ASSERTION-LEVEL: the assertions on the parts the simulator declares; the rest counted as skipped
-            given = {part: reply.get(part) if caps.get(cap) else None for part, cap in
-                     (("state", "privileged_state"), ("events", "events"), ("observations", "observations"),
-                      ("masks", "masks"))}
-            if given["events"] is None and caps.get("events"):
-                given["events"] = []
-            diagnostic = caps.get("diagnostic_state", False)
+            given = _given(reply, caps)
             found = mismatches(item.case, t, given["state"], given["events"], observations=given["observations"],
-                               masks=given["masks"], done=reply.get("done"), diagnostic=diagnostic)
-            checked, skipped = tally(item.case, t, available_parts(*given.values(), reply.get("done")), diagnostic)
-            res.assertions_checked += checked
-            for part, n in skipped.items():
-                res.assertions_skipped[part] = res.assertions_skipped.get(part, 0) + n
+                               masks=given["masks"], done=reply.get("done"), diagnostic=caps.get("diagnostic_state", False))
+            _count_assertions(res, item, t, reply, caps)
             failed_expectations = [str(m) for m in found]
     if div is None and not violations and not failed_expectations:
         return False
