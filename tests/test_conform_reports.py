@@ -101,6 +101,21 @@ def test_the_events_of_a_reply_whose_state_differs_first_are_aligned_too():
     assert ops == {"missing": "release_lost", "extra": "release"}
 
 
+def test_diff_shrinks_and_saves_an_event_divergence_by_its_kind():
+    """`agspec diff` keeps what differs (a missing support) while shrinking, and its saved case asserts
+    the missing event itself."""
+    from agspec.conform.shrink import expectation
+
+    support = {"type": "support", "robot": "0,1", "candidate": "op:0:fit:0,0;0,1"}
+    created = {"type": "proposal_created", "candidate": "op:0:fit:0,0;0,1", "expires_at": 4}
+    div = compare_reply(2, {"events": [created, support]}, {"events": [created]}, ["events"])
+    assert div.signature() == ("events", "missing support")
+    assert expectation(div) == {"after_tick": 2, "events": [support]}
+    extra = compare_reply(2, {"events": [created]}, {"events": [created, support]}, ["events"])
+    assert extra.signature() == ("events", "extra support") and expectation(extra) == {"after_tick": 2,
+                                                                                       "no_events": [support]}
+
+
 # ===================================================================== the failing step and its actions
 
 
