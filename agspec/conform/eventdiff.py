@@ -178,14 +178,16 @@ _MARK = {"same": "=", "changed": "~", "moved": "↕", "missing": "-", "extra": "
 
 
 def render_event_diff(diff: Mapping[str, Any], expected_label: str = "expected", actual_label: str = "actual",
-                      indent: str = "    ", width: int = 46, keep: int = 2) -> list[str]:
+                      indent: str = "    ", width: int = 72, keep: int = 2) -> list[str]:
     """Side-by-side lines: one row per aligned event (``-`` expected only, ``+`` actual only, ``~``
     fields differ, ``↕`` reordered), the field differences under a changed row; runs of more than
-    ``2 * keep`` equal events are cut to their ends."""
+    ``2 * keep`` equal events are cut to their ends; the left column is at most ``width`` wide."""
     rows = list(diff.get("rows", []))
-    lines = [f"{indent}  {'#':>3} {expected_label:<{width}} {'#':>3} {actual_label}"]
     bad = [k for k, r in enumerate(rows) if r["op"] != "same"]
     shown = {k for b in bad for k in range(b - keep, b + keep + 1)}
+    width = min(width, max([len(expected_label)] + [len(event_summary(r["expected"])) for k, r in enumerate(rows)
+                                                     if r["op"] != "extra" and (k in shown or r["op"] != "same")]))
+    lines = [f"{indent}  {'#':>3} {expected_label:<{width}} {'#':>3} {actual_label}"]
     skipped = 0
     for k, r in enumerate(rows):
         if r["op"] == "same" and k not in shown:
