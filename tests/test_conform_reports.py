@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import shlex
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -176,6 +178,24 @@ def test_render_diff_of_a_simulator_without_state_draws_only_the_expected_side(t
     data = build_diff(tmp_path / "r.jsonl")
     assert data["actual"] is None and "no state" in data["actual_source"]
     assert data["differences"][str(data["focus"])]
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs node to run the viewer script without a browser")
+def test_the_viewer_script_draws_a_diff_with_and_without_an_observed_side(tmp_path: Path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    run_inprocess(catalogue_episodes(1, 8, ["flow-easy"]), Tamper("ignore_actions", 1), tmp_path)
+    data = build_diff(tmp_path / "r.jsonl")
+    viewer = R.ROOT / "agspec" / "viewer" / "assets" / "viewer.js"
+    for observed in (True, False):
+        doc = tmp_path / "doc.json"
+        doc.write_text(json.dumps(data if observed else {**data, "actual": None}), encoding="utf-8")
+        proc = subprocess.run(["node", str(FAKES / "dom_stub.js"), str(doc), str(viewer)], capture_output=True,
+                              text=True, timeout=60)
+        assert proc.returncode == 0, proc.stderr
+        out = json.loads(proc.stdout.splitlines()[-1])
+        assert out["T"] == data["focus"]
+        assert ("observed tamper" in out["subtitle"]) == observed and "expected agspec-reference" in out["subtitle"]
+        assert data["failure"]["reply"] in out["panel"]  # the reply named as every report names it
 
 
 # ========================================================================== known divergences named
