@@ -91,7 +91,8 @@ def test_divergence_pointer_and_replay(tmp_path: Path):
     assert f["type"] == "divergence" and f["where"] == "state"
     assert f["pointer"] == "/robots/0,0/switch_lock" and f["path"] == "/state/robots/0,0/switch_lock"
     assert f["tick"] == 2 and f["actual"] == f["expected"] + 1
-    assert len(f["context"]) == 2  # the preceding ticks 0 and 1
+    # the joint actions up to and including the step whose reply diverged: ticks 0, 1 and 2
+    assert [c["t"] for c in f["context"]] == [0, 1, 2]
     path = Path(f["reproducer"])
     data = json.loads(path.read_text())
     assert data["format"] == "agspec-repro/1" and len(data["actions"]) == 3  # ticks 0, 1, 2
@@ -113,6 +114,7 @@ def test_table_output_is_commonmark_style(tmp_path: Path):
                                 catch_exceptions=False)
     text = result.output
     assert result.exit_code == 1
-    assert "first divergence after tick 2: state /robots/0,0/switch_lock" in text
-    assert "preceding ticks:" in text and "replay:" in text
+    assert ("first divergence in the reply to step 2 (the joint action of epoch 2 \u2192 the state of epoch 3): "
+            "state /robots/0,0/switch_lock") in text
+    assert "joint actions up to that reply" in text and "replay:" in text
     assert "NONCONFORMANT" in text

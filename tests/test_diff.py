@@ -236,7 +236,8 @@ def test_cli_divergence_is_shrunk_printed_and_saved(tmp_path):
                                       str(tmp_path), "--controller", "greedy"])
     assert result.exit_code == 1, result.output
     out = result.output
-    assert "minimal counterexample" in out and "after tick 3: state /products/0/delivered_at" in out
+    assert "minimal counterexample" in out and ("in the reply to step 3 (the joint action of epoch 3 \u2192 the state of epoch 4): "
+                                                   "state /products/0/delivered_at") in out
     assert "expected (reference)" in out and "t=3    0,1    deliver" in out
     cases = list((tmp_path / "cases").glob("*.yaml"))
     repros = list(tmp_path.glob("*.repro.json"))

@@ -90,7 +90,8 @@ def test_a_mutant_fails_with_the_divergence_report(project):
     outcomes = result.parseoutcomes()
     assert outcomes.get("failed", 0) >= 1
     text = result.stdout.str()
-    assert "first divergence" in text and "/state/robots/" in text
+    assert "first divergence in the reply to step " in text and "/state/robots/" in text
+    assert "its reply is the one that failed" in text  # the joint action of the failing step, as in conform
     assert "INV-CONSERVATION" in text
     assert result.ret == pytest.ExitCode.TESTS_FAILED
 

@@ -168,6 +168,14 @@ def print_summary(summary, impl_spec: str) -> None:
                  f"{c['events']} events, {c['state']} states, {c['observations']} observations, {c['masks']} masks; "
                  f"{summary.invariant_checks} invariant checks, {summary.expectations} expectations, "
                  f"{summary.duration_s:.1f} s")
+    a = summary.assertions
+    if a["checked"] or a["skipped"]:
+        stdout.print(f"suite assertions: {a['checked']} checked, {a['skipped']} skipped"
+                     + (" (they read parts the implementation does not declare: "
+                        + ", ".join(f"{p} {n}" for p, n in a["skipped_by_part"].items()) + ")" if a["skipped"] else ""),
+                     markup=False)
+    for ident, ids in summary.known_divergences.items():
+        stdout.print(f"[cyan]known divergence[/] {ident} (spec/10-divergences.md): {', '.join(ids)}")
     if summary.golden:
         stdout.print(f"{summary.golden} of {len(summary.results)} items matched golden reference traces reply by "
                      "reply (F-GOLDEN; --golden-cache off runs every item live)")

@@ -12,6 +12,7 @@ from agspec.campaign.executor import ExecutorSpec
 from agspec.catalogue import InvalidDocumentError, InvalidInstanceError
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import executor_options
+from agspec.conform.compare import reply_name
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
 from agspec.conform.teardown import exit_on_signals
@@ -209,7 +210,7 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     if again["reproduced"] < again["replays"]:
         entry["nondeterministic"] = {"original": original, "final": again}
     title = (f"diff: {pair.expected_label} vs {pair.actual_label}: {shrunk.divergence.where} "
-             f"{shrunk.divergence.pointer or ''} after tick {shrunk.divergence.tick}")
+             f"{shrunk.divergence.pointer or ''} {reply_name(shrunk.divergence.tick, short=True)}")
     notes = (f"Found by `agspec diff` on {subject.label} with {finding.policy} ({entry['ticks']} ticks, "
              f"{entry['actions']} non-idle actions); shrunk to {shrunk.ticks} ticks and {shrunk.actions} non-idle "
              f"actions in {shrunk.checks} replays. Expected values are {pair.expected_label}'s.")
@@ -256,12 +257,12 @@ def reproductions(pair, instance, seed, script, divergence, ticks: int | None = 
 def _print_nondeterministic(finding, original: dict[str, Any], final: dict[str, Any] | None) -> None:
     d = finding.run.divergence
     stdout.print(f"\n[bold red]nondeterministic implementation[/] on {finding.subject.label} with {finding.policy}: "
-                 f"the divergence {d.where} {d.pointer or ''} after tick {d.tick} recurred in "
+                 f"the divergence {d.where} {d.pointer or ''} {reply_name(d.tick, short=True)} recurred in "
                  f"{original['reproduced']} of {original['replays']} replays of the same actions"
                  + (f", the shrunk counterexample in {final['reproduced']} of {final['replays']}" if final else ""),
                  markup=True)
     for k, r in enumerate((final or original)["runs"]):
-        what = (f"diverged after tick {r['tick']}: {r['where']} {r['pointer'] or ''}" if r.get("diverged")
+        what = (f"diverged {reply_name(r['tick'], short=True)}: {r['where']} {r['pointer'] or ''}" if r.get("diverged")
                 else r.get("error") or "no divergence")
         stdout.print(f"    replay {k + 1}: {what}", markup=False)
 
@@ -287,7 +288,7 @@ def _print_counterexample(pair, finding, shrunk, path: Path, entry: dict[str, An
 
     d0, d = finding.run.divergence, shrunk.divergence
     stdout.print(f"\n[bold red]divergence[/] on {finding.subject.label} with {finding.policy}: "
-                 f"{d0.where} {d0.pointer or ''} after tick {d0.tick}", markup=True)
+                 f"{d0.where} {d0.pointer or ''} {reply_name(d0.tick, short=True)}", markup=True)
     stdout.print(f"[bold]minimal counterexample[/] ({entry['ticks']} -> {shrunk.ticks} ticks, "
                  f"{entry['actions']} -> {shrunk.actions} non-idle actions, {shrunk.checks} replays, "
                  f"{shrunk.seconds:.1f} s{'; budget exhausted' if shrunk.exhausted else ''})", markup=True)

@@ -16,11 +16,12 @@ from agspec.controllers import CONTROLLERS
 @click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="The HTML file to write (default replay.html, or diff.html with --diff).")
 @click.option("--diff", "report", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="REPORT",
-              help="A conformance report (agspec conform --report): show its first divergence side by side.")
+              help="A conformance report (agspec conform --report): show its first divergence, the expected "
+                   "(reference) states beside the observed ones (what the implementation sent).")
 @click.option("--case", "case_id", default=None, help="With --diff: the failing case to show (default: the first divergence).")
 @click.option("--replay", is_flag=True,
-              help="With --diff: re-run the reproducer's implementation for the full actual states "
-                   "(default: the report's recorded difference applied to the reference's states).")
+              help="With --diff: re-run the reproducer's implementation for its states after the divergence too "
+                   "(default: the states the implementation sent, as the report recorded them).")
 @click.option("--impl", "impl", default=None, metavar="SPEC",
               help="With --diff: the implementation to re-run (implies --replay). Without a TRACE: record a trace "
                    "of this implementation (a command line, python:pkg.mod:factory or reference) and render it.")

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Protocol, Sequence
 
 from agspec.conform.compare import MISSING, Divergence, behavioural, compare_reply
-from agspec.formats.actions import IDLE, IllegalAction, option_ids, symbolic
+from agspec.formats.actions import IDLE, N_ACTIONS, IllegalAction, option_ids, symbolic
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint
 
@@ -127,7 +127,9 @@ def applied_actions(reply: Mapping[str, Any], sent: Mapping[str, int], robots: S
     if observations is not None:
         def legal(r: str, a: int) -> bool:
             mask = (observations.get(r) or {}).get("mask") if isinstance(observations.get(r), dict) else None
-            return not isinstance(mask, list) or (0 <= a < len(mask) and bool(mask[a]))
+            if not isinstance(mask, list):  # no mask known: only an out-of-range action is surely coerced
+                return 0 <= a < N_ACTIONS
+            return 0 <= a < len(mask) and bool(mask[a])
 
         return {r: (int(sent.get(r, 0)) if legal(r, int(sent.get(r, 0))) else 0) for r in robots}
     coerced = {e.get("robot") for e in reply.get("events") or []

@@ -37,16 +37,6 @@ class Item:
     tags: tuple[str, ...] = ()
     location: str | None = None
 
-    @property
-    def needs_observations(self) -> bool:
-        return self.case is not None and self.case.needs_observations
-
-    @property
-    def needs_state(self) -> bool:
-        if self.case is None:
-            return False
-        return any("state" in e or "absent" in e for e in self.case.expectations)
-
 
 def from_case(case: Case) -> Item:
     controller = None

@@ -27,8 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-from agspec.conform import compare, driver, golden, invariants
-from agspec.conform.cases import mismatches
+from agspec.conform import compare, driver, golden, invariants, known
+from agspec.conform.cases.expectations import available_parts, mismatches, tally
+from agspec.formats.divergences import expect_entry
 from agspec.conform.driver import Pair
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.items import Item
@@ -37,6 +38,7 @@ from agspec.conform.protocol import ProtocolError, Unsupported
 
 # F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
 LEVEL_PARTS = ("events", "state", "observations", "masks")
+ASSERTED_PARTS = LEVEL_PARTS + ("done",)  # what suite assertions read (RES-ASSERTION-LEVEL)
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,14 @@ class Result:
     skip_reason: str | None = None  # the simulator's reason when it answered `unsupported`
     event_types: set[str] = field(default_factory=set)  # of the reference's run: which rules fired
     reference: str = "live"  # F-GOLDEN: "golden" when the replies were matched against a golden trace
+    # RES-ASSERTION-LEVEL: the case's assertions evaluated, and those skipped by the part they need
+    assertions_checked: int = 0
+    assertions_skipped: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def assertions(self) -> dict[str, Any]:
+        return {"checked": self.assertions_checked, "skipped": sum(self.assertions_skipped.values()),
+                "skipped_by_part": dict(sorted(self.assertions_skipped.items()))}
 
     def record(self, outcome: str | None = None, expected: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The report line (F-REPORT) of this result."""
@@ -79,7 +89,7 @@ class Result:
             "duration_s": round(self.duration_s, 6), "ticks": self.ticks,
             "checks": {"states": self.states, "invariant_checks": self.invariant_checks,
                        "expectations": self.expectations, "compared": dict(self.compared),
-                       "reference": self.reference},
+                       "reference": self.reference, "assertions": self.assertions},
         }
         if expected is not None:
             rec["expected"] = dict(expected)
@@ -88,13 +98,32 @@ class Result:
         return rec
 
 
+def declared_parts(caps: Mapping[str, bool]) -> set[str]:
+    """RES-ASSERTION-LEVEL: the reply parts a simulator with ``caps`` sends, as assertions read them."""
+    parts = {"done"} | {part for part, cap in (("state", "privileged_state"), ("events", "events"),
+                                               ("observations", "observations"), ("masks", "masks"))
+                        if caps.get(cap)}
+    return parts
+
+
 def _skip_reason(item: Item, caps: Mapping[str, bool]) -> str | None:
-    if item.needs_observations and not caps.get("observations"):
-        return "the case asserts observations; the implementation does not declare the observations capability"
-    if item.needs_state and not caps.get("privileged_state"):
-        return "the case asserts the global state; the implementation does not declare privileged_state"
     if not caps.get("privileged_state") and not caps.get("events"):
         return "the implementation declares neither privileged_state nor events: nothing to compare"
+    case = item.case
+    if case is not None and case.expectations:
+        # RES-ASSERTION-LEVEL: run what the level allows; a case none of whose assertions it allows
+        # would check nothing of what it is for (vacuity guard), so it is skipped
+        available = declared_parts(caps)
+        checked, skipped = 0, {}
+        for t in sorted({e["after_tick"] for e in case.expectations}):
+            n, by_part = tally(case, t, available, caps.get("diagnostic_state", False))
+            checked += n
+            for part, k in by_part.items():
+                skipped[part] = skipped.get(part, 0) + k
+        if not checked:
+            need = ", ".join(sorted(skipped))
+            return (f"every assertion of the case reads a part the implementation does not declare ({need}): "
+                    "nothing of what it asserts could be checked")
     return None
 
 
@@ -156,6 +185,11 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             recorded = recorder.golden(res)
             if recorded is not None:
                 golden.store(directory, recorded)
+        if res.outcome == "pass" and item.case is not None and item.case.expectations and not res.assertions_checked:
+            # vacuity guard (RES-ASSERTION-LEVEL): a case that checked none of its assertions did not pass
+            res.outcome = "skip"
+            res.message = ("none of the case's assertions could be checked (they read parts the replies did not "
+                           f"carry: {', '.join(sorted(res.assertions_skipped)) or 'none'})")
         return res
     except Unsupported as exc:
         res.outcome, res.message, res.skip_reason = "skip", f"unsupported: {exc.reason}", exc.reason
@@ -204,6 +238,9 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
             return differed
         counts = golden.counts_at(recorded, len(recorded.replies))
         res.ticks = recorded.summary["ticks"]
+        # RES-GOLDEN-IDENTITY: the reference's replies, every part declared: every assertion evaluated
+        for t in range(res.ticks):
+            _count_assertions(res, item, t, None, {"diagnostic_state": True})
     res.states, res.compared = counts["states"], dict(counts["compared"])
     res.invariant_checks, res.event_types = counts["invariant_checks"], set(counts["event_types"])
     res.expectations = counts["expectations"]
@@ -233,7 +270,9 @@ class _Checker:
         self.events = bool(impl.capabilities.get("events"))
         self.ctx = invariants.Context.from_instance(item.instance) if use_state else None
         self.sent: list[dict[str, int]] = []
-        self.history: deque = deque(maxlen=max(0, opts.context))
+        # F-REPORT `context`: the last ticks up to and including the step whose reply is checked
+        self.history: deque = deque(maxlen=max(0, opts.context) + 1)
+        self.pair_parts = list(parts)
         self.prev_rec: dict[str, Any] | None = None
         self.prev_obs: Any = None
         self.robots: list[str] = []
@@ -262,24 +301,50 @@ class _Checker:
                 if self.prev_obs is not None:
                     rec["observations"] = self.prev_obs
         target = rec if t >= 0 else self.prev_rec
+        if t >= 0:
+            self.history.append({"t": t, "actions": dict(joint), "events": list(reply.get("events") or [])})
         if t + 1 < self.known:
             self.res.states += 1
             if self.ctx is not None:
                 invariants.remember_records(self.ctx, self.prev_rec if t >= 0 else None, target)
             self.res.invariant_checks = self.summary["invariant_checks_by_reply"][t + 1]
             self.res.expectations = self.summary["expectations_by_reply"][t + 1]
+            _count_assertions(self.res, self.item, t, reply, self.impl.capabilities)
         elif _check(self.res, self.item, t, div, reply, self.ctx, self.prev_rec if t >= 0 else None, target,
-                    self.opts, self.sent, self.history, self.impl):
+                    self.opts, self.sent, self.history, self.impl, exp, self.pair_parts):
             return True
         if t >= 0:
-            self.history.append({"t": t, "actions": dict(joint), "events": list(reply.get("events") or [])})
             self.prev_rec = rec
         self.prev_obs = reply.get("observations")
         return False
 
 
+def _given(reply: Mapping[str, Any], caps: Mapping[str, bool]) -> dict[str, Any]:
+    """RES-ASSERTION-LEVEL: the parts of ``reply`` that assertions may read (None: not declared)."""
+    given = {part: reply.get(part) if caps.get(cap) else None for part, cap in
+             (("state", "privileged_state"), ("events", "events"), ("observations", "observations"),
+              ("masks", "masks"))}
+    if given["events"] is None and caps.get("events"):
+        given["events"] = []
+    return given
+
+
+def _count_assertions(res: Result, item: Item, t: int, reply: Mapping[str, Any] | None,
+                      caps: Mapping[str, bool]) -> None:
+    """Count the assertions after tick ``t`` that the reply lets the harness evaluate, and the rest
+    (``reply`` None: a reply of the reference, which carries every part)."""
+    if item.case is None or t < 0:
+        return
+    available = set(ASSERTED_PARTS) if reply is None else \
+        available_parts(*_given(reply, caps).values(), reply.get("done"))
+    checked, skipped = tally(item.case, t, available, caps.get("diagnostic_state", False))
+    res.assertions_checked += checked
+    for part, n in skipped.items():
+        res.assertions_skipped[part] = res.assertions_skipped.get(part, 0) + n
+
+
 def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, prev_rec, target, opts: Options,
-           sent, history, impl) -> bool:
+           sent, history, impl, expected: Mapping[str, Any], parts) -> bool:
     """Expectations and invariants after one reply, with the driver's divergence; True if the item failed."""
     res.states += 1
     violations: list[invariants.Violation] = []
@@ -288,20 +353,23 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
         violations = invariants.check_records(ctx, prev_rec, target)
         res.invariant_checks += sum(ctx.counts.values()) - before
     failed_expectations: list[str] = []
+    caps = impl.capabilities
     if item.case is not None and t >= 0:
         exps = item.case.expectations_at(t)
         if exps:
             res.expectations += len(exps)
-            found = mismatches(item.case, t, reply.get("state") or {},
-                               (reply.get("events") or []) if impl.capabilities.get("events") else None,
-                               observations=reply.get("observations") if impl.capabilities.get("observations") else None,
-                               done=reply.get("done"), diagnostic=impl.capabilities.get("diagnostic_state", False))
+            # RES-ASSERTION-LEVEL: the assertions on the parts the simulator declares; the rest counted as skipped
+            given = _given(reply, caps)
+            found = mismatches(item.case, t, given["state"], given["events"], observations=given["observations"],
+                               masks=given["masks"], done=reply.get("done"), diagnostic=caps.get("diagnostic_state", False))
+            _count_assertions(res, item, t, reply, caps)
             failed_expectations = [str(m) for m in found]
     if div is None and not violations and not failed_expectations:
         return False
     res.outcome = "fail"
     kind = "divergence" if div is not None else ("invariant" if violations else "expectation")
-    failure: dict[str, Any] = {"type": kind, "tick": t, "ids": sorted({v.invariant for v in violations})}
+    failure: dict[str, Any] = {"type": kind, "tick": t, "reply": compare.reply_name(t),
+                               "ids": sorted({v.invariant for v in violations})}
     if div is not None:
         failure.update(div.to_json())
         failure["tick"] = t
@@ -315,6 +383,11 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
                              for v in violations[:20]]
     failure["expectations"] = failed_expectations[:20]
     failure["context"] = [dict(h) for h in history]
+    # what the implementation sent in the failing reply (`agspec render --diff` draws it)
+    failure["observed"] = {part: reply[part] for part in ("state", "events") if part in reply}
+    named = known.match(div, expected, reply, parts)  # F-CONFORM-KNOWN
+    if named is not None:
+        failure["known_divergence"] = {**named, "expect": expect_entry(item.id, named["id"])}
     reproducer = item.location if item.kind == "replay" else None  # a replay is its own reproducer
     if opts.repro_dir and item.kind != "replay":
         data = compare.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
@@ -328,26 +401,26 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
     res.failure = failure
     res.message = msg
     res.rendered = _render_fail(item, div, violations, failed_expectations, history, reproducer,
-                                opts.impl_spec or impl.spec, t)
+                                opts.impl_spec or impl.spec, t, named)
     return True
 
 
-def _render_fail(item: Item, div, violations, failed_expectations, history, reproducer, impl_spec, t) -> str:
+def _render_fail(item: Item, div, violations, failed_expectations, history, reproducer, impl_spec, t,
+                 named=None) -> str:
     if div is not None:
         text = compare.render_divergence(item.title, item.id, div, list(history), reproducer, impl_spec)
     else:
-        at = "after reset" if t < 0 else f"after tick {t}"
-        text = f"{item.id} {item.title}\n  first failure {at}"
-        if history:
-            text += "\n  preceding ticks:"
-            for entry in history:
-                text += f"\n    t={entry['t']:<4} actions {compare.action_summary(entry['actions'])}"
+        lines = [f"{item.id} {item.title}", f"  first failure {compare.reply_name(t)}"]
+        lines += compare.render_context(list(history), t)
         if reproducer:
-            text += f"\n  reproducer: {reproducer}"
+            lines.append(f"  reproducer: {reproducer}")
+        text = "\n".join(lines)
     for v in violations[:5]:
         text += f"\n  violated {v}"
     for m in failed_expectations[:5]:
         text += f"\n  expectation {m}"
+    if named is not None:
+        text += "\n" + "\n".join(known.render(named, item.id))
     if item.location:
         text += f"\n  case at {item.location}"
     return text

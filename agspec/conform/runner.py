@@ -120,6 +120,26 @@ class Summary:
         return sum(r.expectations for r, _ in self.results)
 
     @property
+    def assertions(self) -> dict[str, Any]:
+        """RES-ASSERTION-LEVEL: suite assertions evaluated, and skipped by the part they need."""
+        by_part: dict[str, int] = {}
+        for r, _ in self.results:
+            for part, n in r.assertions_skipped.items():
+                by_part[part] = by_part.get(part, 0) + n
+        return {"checked": sum(r.assertions_checked for r, _ in self.results), "skipped": sum(by_part.values()),
+                "skipped_by_part": dict(sorted(by_part.items()))}
+
+    @property
+    def known_divergences(self) -> dict[str, list[str]]:
+        """F-CONFORM-KNOWN: the failing items whose failure is a known divergence, by DIV id."""
+        out: dict[str, list[str]] = {}
+        for r, o in self.results:
+            named = (r.failure or {}).get("known_divergence")
+            if named and o in ("fail", "xfail"):
+                out.setdefault(named["id"], []).append(r.item.id)
+        return out
+
+    @property
     def vacuous(self) -> bool:
         """Vacuity guard: no behavioural part was compared and no invariant was checked."""
         return not self.level and self.invariant_checks == 0
@@ -158,6 +178,7 @@ class Summary:
             "total": len(self.results), "not_run": self.not_run, "ticks": self.ticks, "replies_compared": self.states,
             "states_compared": self.compared["state"],
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
+            "assertions": self.assertions, "known_divergences": self.known_divergences,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
             "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
             "duration_s": round(self.duration_s, 3), "golden_items": self.golden,

@@ -42,6 +42,7 @@ import yaml
 
 from agspec.conform.compare import MISSING as _MISSING
 from agspec.conform.diff import Divergence, JointAction, Pair, Run, is_idle, non_idle, replay
+from agspec.conform.eventdiff import differing
 from agspec.ir.schemas import validate_schema
 from agspec.ir.validate import errors, validate_instance
 
@@ -299,7 +300,14 @@ def expectation(divergence: Divergence) -> Json | None:
         else:
             exp["state"] = {d.pointer: d.expected}
     elif d.where == "events":
-        if isinstance(d.expected, Mapping) and "type" in d.expected:
+        row = next(iter(differing(d.events)), None) if d.events is not None else None
+        if row is not None and row["op"] != "extra":  # F-EVENT-DIFF: the expected event of the first differing row
+            exp["events"] = [dict(row["expected"])]
+            if row["op"] == "changed":
+                exp["no_events"] = [dict(row["actual"])]
+        elif row is not None:
+            exp["no_events"] = [dict(row["actual"])]
+        elif isinstance(d.expected, Mapping) and "type" in d.expected:
             exp["events"] = [dict(d.expected)]
         elif isinstance(d.actual, Mapping) and "type" in d.actual:
             exp["no_events"] = [dict(d.actual)]

@@ -7,8 +7,9 @@ Tick invariants (chapter 8) judge each transition; this module judges the trace 
   execution (R-TERMINATION, batch mode); a trace cut short, even with a consistent footer, is AG608;
 * **footer metrics** — every footer metric that the records determine is recomputed from the
   states and events (:func:`recompute`) and compared (floats to 1e-9 relative); a footer that
-  disagrees is AG605.  Metrics that need the reference's internal samples (capacity,
-  geometry, occupancy) are not recomputed.
+  disagrees is AG605, and names the known divergence of the original release it is, if any
+  (F-CONFORM-KNOWN, :func:`known_metric`).  Metrics that need the reference's internal samples
+  (capacity, geometry, occupancy) are not recomputed.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import math
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.diagnostics import Diagnostic
+from agspec.formats.divergences import by_scope
 from agspec.interp.metrics import _pct as percentile
 
 Json = dict[str, Any]
@@ -104,6 +106,17 @@ def terminated(header: Mapping[str, Any], state: Mapping[str, Any]) -> bool:
     return ev.get("mode") == "batch" and state["released"] >= size and state["delivered"] >= size
 
 
+def known_metric(header: Mapping[str, Any], metric: str, recomputed: Any) -> str | None:
+    """F-CONFORM-KNOWN: the DIV id whose ``metrics`` signature a wrong footer metric matches: the
+    metric, the evaluation mode, and the value the paper gives (the recomputed one) are the signature's."""
+    mode = ((header.get("instance") or {}).get("scenario") or {}).get("evaluation", {}).get("mode")
+    for ident, sig in by_scope("metrics").items():
+        if (sig["metric"] == metric and sig.get("evaluation_mode", mode) == mode
+                and _same(recomputed, sig["reference_value"])):
+            return ident
+    return None
+
+
 def verify(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
            lines: Sequence[int] | None = None) -> list[Diagnostic]:
     """AG608 (the trace stops before its horizon) and AG605 (a footer metric the records contradict).
@@ -133,8 +146,11 @@ def verify(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
         footer, line = footers[0]
         for key, want in recompute(records).items():
             if key in footer["metrics"] and not _same(footer["metrics"][key], want):
+                named = known_metric(header, key, want)
                 out.append(diag("AG605", f"the footer declares {key} = {footer['metrics'][key]!r}, the records "
-                                         f"give {want!r}", file, line, pointer=f"/metrics/{key}"))
+                                         f"give {want!r}" + (f" \u2014 the known divergence {named} of the original "
+                                                             "release (spec/10-divergences.md)" if named else ""),
+                                file, line, pointer=f"/metrics/{key}"))
     except (KeyError, TypeError, ValueError, AttributeError, IndexError):
         pass  # a record without the fields: the schema diagnostics already say so
     return out

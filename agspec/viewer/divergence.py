@@ -2,19 +2,20 @@
 
 A report line records the first difference (tick, part, JSON Pointer, expected and actual values,
 further differing pointers in ``more``) and the path of a reproducer: the instance, execution seed
-and every joint action sent up to the failing tick. It does not hold whole states, so both sides
-are rebuilt from the reproducer, deterministically (D-DETERMINISM):
+and every joint action sent up to the failing tick, and the failing reply's own state and events
+(``observed``), not the earlier ones.  The expected side is rebuilt from the reproducer,
+deterministically (D-DETERMINISM):
 
 * expected — the reference interpreter re-run with the reproducer's actions;
-* actual — with ``replay``, the implementation itself re-run with the same actions (its command is
-  the reproducer's ``impl``, or the one given); otherwise the expected states with the report's
-  recorded difference applied at the diverging state, the other differing pointers flagged without
-  values (the report does not carry them).
+* observed — what the implementation sent: by default the states of the report's run (equal to the
+  reference's up to the failing reply, which the report records whole in ``failure.observed``); with
+  ``replay``, the implementation itself re-run with the same actions (its command is the
+  reproducer's ``impl``, or the one given).  A simulator that sends no state has no observed side
+  to draw: only the expected one is shown, with the differing pointers.
 """
 
 from __future__ import annotations
 
-import copy
 import io
 from pathlib import Path
 from typing import Any, Mapping
@@ -104,83 +105,99 @@ def _run(impl: str, repro: Mapping[str, Any], timeout: float) -> TraceData:
     return trace_data(read_records(buf.getvalue().splitlines()), name=impl)
 
 
-def _pointer_set(pointer: str, state: Any, value: Any) -> Any:
-    """Set the value at an RFC 6901 pointer inside ``state`` (a copy), creating nothing."""
+def _differences(expected: Mapping[str, Any], actual: Mapping[str, Any], t: int, differences: dict[str, list[str]],
+                 values: dict[str, list[str]]) -> None:
+    """Every differing pointer of state ``t`` (as the report writes its paths, F-REPORT ``path``)."""
+    ptrs = []
+    for ptr, e, a in iter_differences(expected, actual):
+        ptr = "/state" + ptr
+        ptrs.append(ptr)
+        if len(ptrs) <= 40:
+            values[f"{t}|{ptr}"] = [show(e, 120), show(a, 120)]
+        if len(ptrs) >= MAX_POINTERS:
+            break
+    if ptrs:
+        differences[str(t)] = ptrs
 
-    out = copy.deepcopy(state)
-    tokens = [t.replace("~1", "/").replace("~0", "~") for t in pointer.split("/")[1:]]
-    if not tokens:
-        return value
-    parent = out
-    for tok in tokens[:-1]:
-        parent = parent[int(tok)] if isinstance(parent, list) else parent[tok]
-    last = tokens[-1]
-    if isinstance(parent, list):
-        idx = int(last)
-        if idx < len(parent):
-            parent[idx] = value
-        else:
-            parent.append(value)
-    else:
-        parent[last] = value
-    return out
+
+def _implementation(records: list[dict[str, Any]], spec: str | None) -> dict[str, Any]:
+    """The implementation as its start reply named it (report header), for the observed side's labels."""
+    described = (records[0].get("implementation") or {}).get("implementation")
+    if isinstance(described, dict) and described.get("name"):
+        return {k: described[k] for k in ("name", "version", "language") if k in described}
+    return {"name": spec or "implementation", "version": ""}
+
+
+def _observed(expected: TraceData, failure: Mapping[str, Any], focus: int, implementation: dict[str, Any],
+              capabilities: Mapping[str, Any]) -> TraceData | None:
+    """The implementation's side as the report recorded it: the states it sent up to the failing
+    reply — those before it were compared equal to the reference's (their behavioural fields,
+    F-TRACE-STATE) — and the state and events of the failing reply itself (``failure.observed``).
+    None when the report holds no observed state (a simulator without ``privileged_state``)."""
+    observed = failure.get("observed") or {}
+    state = observed.get("state")
+    if not isinstance(state, dict) or not 0 <= focus < len(expected.states):
+        return None
+    own_events = bool(capabilities.get("events"))
+    states = list(expected.states[:focus]) + [state]
+    events = [list(e) if own_events else [] for e in expected.events[:focus]]
+    events.append(list(observed.get("events") or []))
+    header = {**expected.header, "implementation": implementation}
+    return TraceData(header, states, events, list(expected.actions[:focus]), None, None)
 
 
 def build_diff(report: Path, *, case_id: str | None = None, replay: bool = False, impl: str | None = None,
                timeout: float = 5.0, keyframe: int = 25) -> dict[str, Any]:
-    """The diff document: both sides encoded, the differing pointers per state index, the failure."""
+    """The diff document: the expected and the observed side encoded, the differing pointers per state
+    index, the failure.  The observed side is what the implementation sent (``failure.observed`` of
+    the report, or, with ``replay``, the implementation re-run from the reproducer); never the
+    reference's states with a difference patched in."""
 
     records = read_report(report)
     case = pick_case(records, case_id, report)
     failure = dict(case["failure"])
     repro = load_reproducer(case, report)
     expected = _run("reference", repro, timeout)
-    focus = int(failure.get("tick", -1)) + 1  # after tick t the compared state is s_{t+1}
+    focus = int(failure.get("tick", -1)) + 1  # the reply to step t carries the state of epoch t + 1
     where = failure.get("where")
     spec = impl or repro.get("impl") or ((records[0].get("implementation") or {}).get("spec"))
+    implementation = _implementation(records, spec)
+    capabilities = (records[0].get("implementation") or {}).get("capabilities") or {}
     differences: dict[str, list[str]] = {}
     values: dict[str, list[str]] = {}
+    actual: TraceData | None
     if replay or impl:
         if not spec:
             raise ReportError(f"{report}: no implementation to replay (give --impl)", usage=True)
         actual = _run(spec, repro, timeout)
-        source = f"actual states re-run from the reproducer with {spec}"
-        n = min(len(expected.states), len(actual.states))
-        for t in range(n):
-            ptrs = []
-            for ptr, e, a in iter_differences(expected.states[t], actual.states[t]):
-                ptr = "/state" + ptr  # as the report writes its paths (F-REPORT `path`)
-                ptrs.append(ptr)
-                if len(ptrs) <= 40:
-                    values[f"{t}|{ptr}"] = [show(e, 120), show(a, 120)]
-                if len(ptrs) >= MAX_POINTERS:
-                    break
-            if ptrs:
-                differences[str(t)] = ptrs
+        source = f"observed: the implementation re-run from the reproducer with {spec}"
+        for t in range(min(len(expected.states), len(actual.states))):
+            _differences(expected.states[t], actual.states[t], t, differences, values)
     else:
-        states = list(expected.states)
-        pointer = failure.get("pointer") or ""
-        source = "actual = expected with the report's recorded difference (re-run with --replay for full states)"
-        if where == "state" and 0 <= focus < len(states) and not failure.get("actual_absent"):
-            try:
-                states[focus] = _pointer_set(pointer, states[focus], failure.get("actual"))
-            except (KeyError, IndexError, ValueError, TypeError):
-                pass
-        actual = TraceData(expected.header, states, expected.events, expected.actions, None, expected.footer)
-        path = failure.get("path") or pointer
-        ptrs = [path] + [p if p.startswith("/" + str(where)) else f"/{where}{p}" for p in failure.get("more") or []]
-        differences[str(focus)] = ptrs
+        actual = _observed(expected, failure, focus, implementation, capabilities)
+        if actual is not None:
+            source = (f"observed: the states {spec or 'the implementation'} sent (those before state {focus} "
+                      f"matched the reference's; state {focus} is its failing reply, as the report recorded it)")
+            _differences(expected.states[focus], actual.states[focus], focus, differences, values)
+        else:
+            source = ("the report holds no state of the implementation (it does not declare privileged_state, or "
+                      "the report predates `failure.observed`): only the expected side is drawn; --replay re-runs "
+                      "the implementation")
+    path = failure.get("path") or failure.get("pointer") or f"/{where}"
+    if where != "state" and path not in differences.get(str(focus), []):
+        differences.setdefault(str(focus), []).insert(0, path)
         values[f"{focus}|{path}"] = [show(failure.get("expected"), 120), show(failure.get("actual"), 120)]
-    if where != "state" and str(focus) not in differences:
-        differences[str(focus)] = [failure.get("path") or failure.get("pointer") or f"/{where}"]
     exp_doc = encode(expected, keyframe=keyframe, title="expected (reference)")
-    act_doc = encode(actual, keyframe=keyframe, title=f"actual ({spec or 'implementation'})")
-    title = f"divergence · {case.get('id')} · {case.get('title') or ''}".strip(" ·")
+    act_doc = encode(actual, keyframe=keyframe, title=f"observed ({spec or 'implementation'})") if actual else None
+    title = f"divergence \u00b7 {case.get('id')} \u00b7 {case.get('title') or ''}".strip(" \u00b7")
+    ref = expected.header.get("implementation") or {}
     return {"mode": "diff", "format": DIFF_FORMAT, "title": title, "case_id": case.get("id"),
-            "failure": {k: failure.get(k) for k in ("type", "message", "tick", "where", "pointer", "path", "ids",
-                                                    "reproducer")},
+            "failure": {k: failure.get(k) for k in ("type", "message", "tick", "reply", "where", "pointer", "path",
+                                                    "ids", "reproducer", "known_divergence")},
             "focus": focus, "differences": differences, "values": values, "actual_source": source,
-            "labels": {"expected": "reference interpreter", "actual": spec or "implementation"},
+            "labels": {"expected": f"reference interpreter ({ref.get('name', 'agspec')} {ref.get('version', '')})".strip(),
+                       "actual": f"{implementation.get('name', '')} {implementation.get('version', '')}".strip()
+                       + (f" \u2014 {spec}" if spec else "")},
             "expected": exp_doc, "actual": act_doc}
 
 

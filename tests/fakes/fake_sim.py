@@ -16,6 +16,8 @@ SUBSTRING (default: every instance) it misbehaves:
     missing    leaves `state` out of its reply
     mutate     from tick T on, reports robot 0,0's `switch_lock` one higher than it is
     schema     reports `t` as a string in its reply (caught by --validate-protocol and the reply checks)
+    drop_support  from tick T on, leaves every `support` event out of its replies (the state is right)
+    ignore_actions  from tick T on, steps as if every robot idled (starts nothing it is asked to)
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ import os
 import sys
 import time
 
-MODES = ("ok", "crash", "hang", "garbage", "wrong_seq", "stale_seq", "missing", "mutate", "schema")
+MODES = ("ok", "crash", "hang", "garbage", "wrong_seq", "stale_seq", "missing", "mutate", "schema", "drop_support",
+         "ignore_actions")
 
 
 def main() -> int:
@@ -59,6 +62,8 @@ def main() -> int:
             os._exit(3)
         if hit and args.mode == "hang":
             time.sleep(3600)
+        if args.mode == "ignore_actions" and cmd == "step" and targeted and at >= args.at:
+            msg = {**msg, "actions": {}}
         reply = server.handle(msg)
         if hit and args.mode == "garbage":
             write("DEBUG: entering step, t=%d" % at)
@@ -70,6 +75,8 @@ def main() -> int:
             reply["t"] = str(reply["t"])
         if args.mode == "mutate" and cmd == "step" and targeted and at >= args.at and reply.get("ok"):
             reply["state"]["robots"]["0,0"]["switch_lock"] += 1
+        if args.mode == "drop_support" and cmd == "step" and targeted and at >= args.at and reply.get("ok"):
+            reply["events"] = [e for e in reply["events"] if e.get("type") != "support"]
         write(reply)
         if hit and args.mode == "stale_seq":
             write(reply)

@@ -27,8 +27,9 @@ Running a case (what a harness does; ``reference_run`` / ``check_reference`` do 
    a ``{"controller": …}`` driver, with the controller's actions; then
    ``check_expectations(case, t, state, events, observations=…, done=…)``, where ``state`` is the
    canonical global state after the step (s_{t+1}), ``events`` the events of the step, and
-   ``observations`` the per-robot observations after the step (pass None without that capability:
-   observation assertions are then not evaluated, see ``Case.needs_observations``).
+   ``observations`` the per-robot observations after the step (pass None for a part the simulator
+   does not declare: its assertions are then not evaluated and are counted as skipped,
+   RES-ASSERTION-LEVEL, ``expectations.tally``).
 
 Expectation dicts carry the loader key ``_index`` (position in the file, or ``"trace"`` for the
 per-tick expectations generated from a reference trace); it is metadata, not an assertion.

@@ -412,9 +412,10 @@
     init() {
       const stage = document.getElementById("stage");
       if (DATA.mode === "diff") {
+        // the observed side is what the implementation sent (absent when it sends no state)
         this.panes.push(new Pane(stage, DATA.expected, "expected · " + (DATA.labels && DATA.labels.expected || "reference"), "expected"));
-        this.panes.push(new Pane(stage, DATA.actual, "actual · " + (DATA.labels && DATA.labels.actual || "implementation"), "actual"));
-        this.T = Math.min(DATA.expected.T, DATA.actual.T);
+        if (DATA.actual) this.panes.push(new Pane(stage, DATA.actual, "observed · " + (DATA.labels && DATA.labels.actual || "implementation"), "actual"));
+        this.T = DATA.actual ? Math.min(DATA.expected.T, DATA.actual.T) : DATA.expected.T;
       } else {
         this.panes.push(new Pane(stage, DATA.replay, null, "replay"));
         this.T = DATA.replay.T;
@@ -423,9 +424,12 @@
       document.getElementById("title").textContent = DATA.title || doc.title;
       document.title = DATA.title || doc.title;
       const L = doc.layout, src = doc.source || {};
-      const impl = src.implementation ? (src.implementation.name + " " + (src.implementation.version || "")) : "?";
+      const named = (s) => s && s.implementation ? (s.implementation.name + " " + (s.implementation.version || "")).trim() : "?";
+      const impl = DATA.mode === "diff"
+        ? "expected " + named(src) + (DATA.actual ? " · observed " + named(DATA.actual.source) : " · observed: no state sent")
+        : "implementation " + named(src);
       document.getElementById("subtitle").textContent = [L.scenario, L.grid.rows + "×" + L.grid.cols + " " + (L.grid.topology || ""),
-        "profile " + (L.profile.id || "?") + (L.profile.variant ? "/" + L.profile.variant : ""), "implementation " + impl,
+        "profile " + (L.profile.id || "?") + (L.profile.variant ? "/" + L.profile.variant : ""), impl,
         src.controller && src.controller.name ? "controller " + src.controller.name : null, doc.footer ? null : "no footer: truncated trace"].filter(Boolean).join(" · ");
       const kmean = doc.footer && doc.footer.metrics && doc.footer.metrics.capacity_mean;
       this.kmean = (kmean !== undefined && kmean !== null) ? kmean : null;
@@ -473,7 +477,7 @@
       let hl = null;
       if (DATA.mode === "diff") {
         const ptrs = (DATA.differences || {})[String(t)] || [];
-        hl = entitiesOf(ptrs, [this.panes[0].states.at(t), this.panes[1].states.at(t)]);
+        hl = entitiesOf(ptrs, this.panes.map((p) => p.states.at(t)));
         this.diffPanel(t, ptrs);
       }
       this.panes.forEach((p) => p.render(t, hl));
@@ -502,10 +506,11 @@
       const box = document.getElementById("diff-panel"), f = DATA.failure || {};
       box.hidden = false;
       let html = "<h2>Divergence</h2><div><b>" + esc(DATA.case_id || "") + "</b> " + esc(f.message || "") + "</div>" +
-        '<div class="hint">first divergence at state index ' + esc(DATA.focus) + " (after tick " + esc(f.tick) + ") · " + esc(DATA.actual_source || "") + "</div>";
+        '<div class="hint">first divergence ' + esc(f.reply || ("at state index " + DATA.focus)) + " · " + esc(DATA.actual_source || "") + "</div>" +
+        (f.known_divergence ? '<div class="hint">known divergence ' + esc(f.known_divergence.id) + " — " + esc(f.known_divergence.title) + "</div>" : "");
       html += '<div class="diff-list">' + (ptrs.length ? ptrs.slice(0, 40).map((p) => {
         const v = (DATA.values || {})[t + "|" + p];
-        return '<div class="row mono">' + esc(p) + (v ? '<br><span class="exp">expected ' + esc(v[0]) + '</span><br><span class="act">actual ' + esc(v[1]) + "</span>" : "") + "</div>";
+        return '<div class="row mono">' + esc(p) + (v ? '<br><span class="exp">expected ' + esc(v[0]) + '</span><br><span class="act">observed ' + esc(v[1]) + "</span>" : "") + "</div>";
       }).join("") + (ptrs.length > 40 ? '<div class="hint">… ' + (ptrs.length - 40) + " more</div>" : "") : '<div class="empty">no difference at this tick</div>') + "</div>";
       box.innerHTML = html;
     },
@@ -523,7 +528,7 @@
         sw("fill:#e6f4ea;stroke:#34a853", "output"),
         '<span><svg width="16" height="14"><circle cx="8" cy="7" r="6" fill="none" stroke="#3d7bc4" stroke-dasharray="3 2"/></svg>incoming handoff</span>',
       ];
-      if (DATA.mode === "diff") parts.push(sw("fill:none;stroke:#d1008f;stroke-width:3", "differs between expected and actual"));
+      if (DATA.mode === "diff") parts.push(sw("fill:none;stroke:#d1008f;stroke-width:3", "differs between expected and observed"));
       parts.push('<span class="hint">keys: ← → step, space play/pause · phases per G-DURATION: approach, process, retreat</span>');
       document.getElementById("legend").innerHTML = parts.join("");
     },
