@@ -66,7 +66,14 @@
     let phase = "approach";
     if (p > A + P) phase = "retreat"; else if (p > A) phase = "process";
     if (A === 0 && p === 0) phase = P > 0 ? "process" : "retreat";
-    return { phase: phase, p: p, D: D, A: A, P: P, R: R };
+    // the tick inside the current phase and the phase's length: "process 2/4", not tick 8 of the whole D
+    const k = phase === "approach" ? p : phase === "process" ? p - A : p - A - P;
+    const n = phase === "approach" ? A : phase === "process" ? P : R;
+    return { phase: phase, p: p, D: D, A: A, P: P, R: R, k: k, n: n };
+  }
+  function phaseText(ph) { return ph.phase + " " + ph.k + "/" + ph.n; }
+  function phaseTitle(ph) {
+    return "tick " + ph.p + " of " + ph.D + ": approach " + ph.A + " + process " + ph.P + " + retreat " + ph.R + " ticks (G-DURATION)";
   }
   function involvedRobots(ev) {
     const out = [];
@@ -144,9 +151,10 @@
         rid.textContent = id;
         const role = el("text", { class: "role", x: this.X(j * s), y: this.Y(i * s + 0.06 * s), "text-anchor": "middle" }, rg);
         const phase = el("text", { class: "phase", x: this.X(j * s), y: this.Y(i * s + half - 0.07 * s), "text-anchor": "middle" }, rg);
+        const phaseTitleEl = el("title", {}, phase);
         const title = el("title", {}, rg);
         rg.addEventListener("click", () => viewer.select(id));
-        this.robotEls[id] = { g: rg, cell: cell, role: role, phase: phase, incoming: inc, title: title };
+        this.robotEls[id] = { g: rg, cell: cell, role: role, phase: phase, phaseTitle: phaseTitleEl, incoming: inc, title: title };
       }
     }
     render(t, highlight) {
@@ -173,12 +181,15 @@
         R.g.setAttribute("data-phase", "");
         R.cell.style.fill = ""; R.cell.style.stroke = "";
         R.role.textContent = ""; R.phase.textContent = ""; R.role.style.fill = "";
+        R.phase.appendChild(R.phaseTitle); R.phaseTitle.textContent = "";
         if (rb.activity) busy++;
         if (a) {
           const ph = phaseOf(a, st.t);
           R.g.setAttribute("data-phase", ph.phase);
           R.g.setAttribute("data-activity", a.id);
-          R.phase.textContent = ph.phase + " " + ph.p + "/" + ph.D;
+          R.phase.textContent = phaseText(ph);
+          R.phase.appendChild(R.phaseTitle);
+          R.phaseTitle.textContent = phaseTitle(ph);
           if (a.kind === "operation") {
             const c = colourOf(a.id);
             cls.push("coalition");
@@ -283,26 +294,36 @@
         const p = Array.isArray(rb.ee) ? rb.ee : this.base(holder);
         let node = this.itemEls[key];
         if (!node) {
+          // the whole id, in a label as wide as its text (9 px bold: about 6 px a character)
+          const w = Math.max(24, 6 * item.length + 8);
           node = el("g", { class: "item", "data-item": item }, this.layers.items);
-          el("rect", { x: -16, y: -8, width: 32, height: 15, rx: 3 }, node);
-          el("text", { x: 0, y: 3, "text-anchor": "middle" }, node).textContent = item.length > 7 ? item.slice(0, 6) + "…" : item;
+          el("line", { class: "leader", x1: 0, y1: 0, x2: 0, y2: 0 }, node);
+          el("rect", { x: -w / 2, y: -7.5, width: w, height: 15, rx: 3 }, node);
+          el("text", { x: 0, y: 3, "text-anchor": "middle" }, node).textContent = item;
           el("title", {}, node);
+          node.labelWidth = w;
           this.itemEls[key] = node;
         }
         const consistent = items[item] === holder && rb.holding === item;
         node.setAttribute("data-holder", holder);
         node.lastChild.textContent = "item " + item + " held by " + holder + (consistent ? "" : " (state.items says " + (items[item] || "nothing") + ")");
         node.setAttribute("class", "item" + (hl.items.has(item) || hl.robots.has(holder) ? " diff" : "") + (consistent ? "" : " inconsistent"));
-        placed.push({ node: node, x: +this.X(p[0]) + 8, y: +this.Y(p[1]) + 10 + (n - 1) * 16 });
+        // in the gap below the holder's cell (cells span ±0.36 s around the base, G-BASE), so a label
+        // never covers a robot; a leader line points at the end effector that holds it (G-END-EFFECTOR)
+        const [bx, by] = this.base(holder);
+        placed.push({ node: node, x: +this.X(bx), y: +this.Y(by + 0.5 * this.s) + (n - 1) * 16,
+                      ex: +this.X(p[0]), ey: +this.Y(p[1]), w: node.labelWidth });
       }
       // on dense grids end-effectors converge on one site: move a label down until it overlaps no other
       // (labels are 32 x 15 px, centred on their anchor), in a stable order so frames do not jitter
       placed.sort((a, b) => a.y - b.y || a.x - b.x);
       const boxes = [];
       for (const q of placed) {
-        while (boxes.some((b) => Math.abs(b.x - q.x) < 33 && Math.abs(b.y - q.y) < 16)) q.y += 16;
+        while (boxes.some((b) => Math.abs(b.x - q.x) < (b.w + q.w) / 2 + 1 && Math.abs(b.y - q.y) < 16)) q.y += 16;
         boxes.push(q);
         q.node.style.transform = "translate(" + q.x + "px," + q.y + "px)";
+        const leader = q.node.firstChild;
+        leader.setAttribute("x2", (q.ex - q.x).toFixed(1)); leader.setAttribute("y2", (q.ey - q.y).toFixed(1));
       }
       for (const key in this.itemEls) if (!seen.has(key)) { this.itemEls[key].remove(); delete this.itemEls[key]; }
     }
@@ -323,7 +344,8 @@
         esc(op ? a.operation : a.kind) + "</b> " + (a.product != null ? "product " + esc(a.product) + " · " : "") + esc((a.members || []).join(" ")) +
         '<div class="mono">' + esc(roles) + '</div><div class="phasebar" title="approach ' + ph.A + " · process " + ph.P + " · retreat " + ph.R + ' (G-DURATION)">' +
         '<div class="ap" style="width:' + w(ph.A) + '"></div><div class="pr" style="width:' + w(ph.P) + '"></div><div class="re" style="width:' + w(ph.R) + '"></div>' +
-        '<div class="now" style="left:' + w(ph.p) + '"></div></div><span class="hint">' + ph.phase + " · tick " + ph.p + "/" + ph.D + " · t " + a.start + "→" + a.end + "</span></div>";
+        '<div class="now" style="left:' + w(ph.p) + '"></div></div><span class="hint">' + phaseText(ph) + " · activity tick " + ph.p + "/" + ph.D +
+        " (approach " + ph.A + " + process " + ph.P + " + retreat " + ph.R + ") · t " + a.start + "→" + a.end + "</span></div>";
     }).join("");
   }
   function proposalsHtml(st) {
@@ -519,9 +541,9 @@
       const parts = [
         sw("fill:#eef0f3;stroke:#b9c0cb", "idle robot"),
         sw("fill:#cfe3f7;stroke:#b9c0cb", "pick / handoff / delivery"),
-        sw("fill:#e4572e33;stroke:#e4572e;stroke-width:2", "coalition member (one colour per operation; role, phase p/D)"),
+        sw("fill:#e4572e33;stroke:#e4572e;stroke-width:2", "coalition member (one colour per operation; role; phase k/n = tick k of the phase's n)"),
         '<span><svg width="16" height="14"><polygon points="8,1 15,7 8,13 1,7" fill="#e4572e"/></svg>operation target</span>',
-        sw("fill:#2f3b52", "material item (at its holder's end effector)"),
+        sw("fill:#2f3b52", "material item product:token, below its holder (a line to the end effector holding it)"),
         '<span><svg width="22" height="14"><line x1="1" y1="7" x2="21" y2="7" stroke="#e09f1f" stroke-width="2.5" stroke-dasharray="5 3"/></svg>pending support k/|U|</span>',
         sw("fill:none;stroke:#d62828;stroke-width:2", "blocked attempt (cause shown)"),
         sw("fill:#fff4dc;stroke:#c9a227", "shelf (stock)"),
@@ -529,7 +551,10 @@
         '<span><svg width="16" height="14"><circle cx="8" cy="7" r="6" fill="none" stroke="#3d7bc4" stroke-dasharray="3 2"/></svg>incoming handoff</span>',
       ];
       if (DATA.mode === "diff") parts.push(sw("fill:none;stroke:#d1008f;stroke-width:3", "differs between expected and observed"));
-      parts.push('<span class="hint">keys: ← → step, space play/pause · phases per G-DURATION: approach, process, retreat</span>');
+      parts.push('<span class="hint">an activity lasts approach + process + retreat ticks (G-DURATION): the arm moves to its target, ' +
+        "works for the operation's duration, then retracts · K*: the most activities that could start together in this state " +
+        "(M-CAPACITY) · occupancy: share of robots busy now (M-OCCUPANCY) · keys: ← → step, space play/pause · " +
+        "<code>agspec explain ID</code> defines every spec ID</span>");
       document.getElementById("legend").innerHTML = parts.join("");
     },
   };
