@@ -42,7 +42,7 @@ def _load_suite(suite_dir: str | None):
 def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, suite_dir: str | None,
                 episodes: int, ticks: int) -> tuple[list, str, set[str], bool]:
     """(items, impl spec, every id that exists, whether the suite was loaded)."""
-    from agspec.conform.items import catalogue_episodes, from_case, from_reproducer
+    from agspec.conform.items import catalogue_episodes, default_run, from_reproducer
 
     if replay_path:
         from agspec.conform.compare import ReproError, load_reproducer
@@ -58,26 +58,21 @@ def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, 
         return [item], spec, {item.id}, False
     if not impl_spec:
         fail("missing --impl SPEC (reference, python:pkg.module:factory, or a command line)")
-    items = []
-    suite_loaded = False
-    if not no_suite:
-        items += [from_case(c) for c in _load_suite(suite_dir)]
-        suite_loaded = True
-    items += catalogue_episodes(episodes, ticks)
-    return items, impl_spec, {i.id for i in items}, suite_loaded
+    items = catalogue_episodes(episodes, ticks) if no_suite else default_run(_load_suite(suite_dir), episodes, ticks)
+    return items, impl_spec, {i.id for i in items}, not no_suite
 
 
 def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
     if not path:
         return {}, []
-    from agspec.catalogue import OFFICIAL_SCENARIOS
     from agspec.conform.expect import ExpectError, load_expectations, stale_entries
+    from agspec.conform.items import EPISODE_SCENARIOS
 
     try:
         expectations = load_expectations(path)
     except ExpectError as exc:
         fail(str(exc), exc.exit_code)
-    return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=OFFICIAL_SCENARIOS)
+    return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=EPISODE_SCENARIOS)
 
 
 # --------------------------------------------------------------------------- running
