@@ -239,12 +239,12 @@ def test_invariant_checker_alone_catches_invariant_mutants(name, invariant_resul
 def test_mutation_score(mutant_results, invariant_results, capsys):
     rows = list(mutant_results.values())
     killed = sum(r["killed"] for r in rows)
-    lines = ["", f"{'mutant':<23} {'breaks':<37} {'outcome':<7} {'tick':>4}  {'identified by (conform)':<32} "
+    lines = ["", f"{'mutant':<29} {'breaks':<37} {'outcome':<7} {'tick':>4}  {'identified by (conform)':<32} "
                  "invariants alone (own trace)", "-" * 132]
     for r in rows:
         mark = "" if r["killed"] else "  SURVIVED"
         alone = ", ".join(invariant_results.get(r["name"], [])) or ("-" if r["want"] == "fail" else "n/a")
-        lines.append(f"{r['name']:<23} {r['breaks']:<37} {r['outcome']:<7} {str(r['tick']):>4}  "
+        lines.append(f"{r['name']:<29} {r['breaks']:<37} {r['outcome']:<7} {str(r['tick']):>4}  "
                      f"{str(r['hit'] or r['ids']):<32} {alone}{mark}")
     lines.append("-" * 132)
     lines.append(f"mutation score: {killed}/{len(rows)} = {100.0 * killed / len(rows):.0f} % "

@@ -118,12 +118,17 @@ def test_the_rho_conf_case_catches_a_simulator_with_the_official_value_and_says_
 
 
 def test_not_over_eager_a_value_the_run_never_depends_on_is_not_covered(suite):
-    """role_target_offset is 0.12 (official) on pair-1x2-official: no counterfactual, nothing covered; the
-    shelf capacity 6 of a flat case equals the official one; the release_lost witness needs the event."""
+    """role_target_offset is 0.12 (official) on pair-1x2-official and its shelf capacity 6 is the official
+    one: neither entry applies, nothing is covered; a conflict variant that the run never brings to a
+    decision is not covered either (the geometry-matched episodes at 60 ticks: rho_conf decides later)."""
     (case,) = [c for c in suite if c.instance.get("id") == "conf-pair-1x2-official"]
     found = V.item_coverage(from_case(case), [entry("profile:role_target_offset!=0.12"),
                                               entry("scenario:shelves.capacity!=6")])
     assert found == {}
+    from agspec.conform.items import catalogue_episodes
+
+    (episode,) = catalogue_episodes(1, 60, ["geometry-matched-high"])
+    assert V.item_coverage(episode, [entry("profile:rho_conf=0.4")]) == {}
 
 
 def test_every_variant_case_asserts_a_value_other_than_the_official_one(suite):

@@ -138,7 +138,8 @@ def entries() -> tuple[Entry, ...]:
               shelves["capacity"], shelves["capacity"], "ne"),
         Entry(f"scenario:shelves.replenish_interval!={shelves['replenish_interval']}", "S-SHELVES", "field",
               "a replenish interval other than the official one (R-REPLENISH)",
-              "/scenario/shelves/replenish_interval", shelves["replenish_interval"], shelves["replenish_interval"], "ne"),
+              "/scenario/shelves/replenish_interval", shelves["replenish_interval"], shelves["replenish_interval"],
+              "ne"),
         Entry("scenario:evaluation.mode=batch", "S-EVALUATION", "batch",
               "batch evaluation: no release after Z products, done at the Z-th delivery (R-RELEASE, R-TERMINATION)"),
         Entry("scenario:resources.finite", "RC-RESOURCES", "resources",
@@ -261,8 +262,7 @@ class Recording:
     failed: str = ""
 
 
-def _run(instance: Mapping[str, Any], seed: int | None, policy: Any, ticks: int,
-         reference: Sequence[Mapping[str, Any]] | None = None, stop: Any = None) -> Recording:
+def _run(instance: Mapping[str, Any], seed: int | None, policy: Any, ticks: int, stop: Any = None) -> Recording:
     """One single-sided run of the reference through the lockstep driver; ``stop(index, reply)``
     ends it early."""
     replies: list[Mapping[str, Any]] = []
@@ -290,7 +290,7 @@ def record(item: Any) -> Recording:
     return _run(item.instance, item.execution_seed, policy, item.ticks)
 
 
-def _mask_slice(reply: Mapping[str, Any], lo: int, hi: int) -> dict[str, Any]:
+def _mask_slice(reply: Mapping[str, Any], lo: int, hi: int | None) -> dict[str, Any]:
     return {r: list(m[lo:hi]) for r, m in (reply.get("masks") or {}).items()}
 
 
@@ -387,10 +387,9 @@ def discriminate(item: Any, rec: Recording, cf_instance: Mapping[str, Any],
     return {key: Finding(t, where, asserted) for key, (t, where) in found.items()}
 
 
-def _one_sided(rec: Recording, option: str) -> bool:
+def _one_sided(rec: Recording) -> bool:
     """bilateral_handoff: a handoff (receive) sent without the partner's matching receive (handoff)
     that started no transfer (R-HANDOFF)."""
-    del option
     for t, joint in enumerate(rec.actions):
         reply = rec.replies[t + 1] if t + 1 < len(rec.replies) else {}
         started = {e.get("sender") for e in _events(reply, ("handoff_started",))} | \
@@ -402,7 +401,7 @@ def _one_sided(rec: Recording, option: str) -> bool:
 
 def _witnessed(entry: Entry, rec: Recording) -> bool:
     if isinstance(entry.value, str) and entry.value.startswith("one_sided_"):
-        return _one_sided(rec, entry.value)
+        return _one_sided(rec)
     pattern = entry.value
     return any(all(e.get(k) == v for k, v in pattern.items()) for reply in rec.replies
                for e in reply.get("events") or [] if isinstance(e, dict))
@@ -450,8 +449,8 @@ def variant_coverage(items: Sequence[Any], *, enough: int | None = None) -> dict
     suite case's expectations assert it.  ``enough``: stop looking at an entry once that many items
     cover (and, where required, assert) it — a cheaper answer to "is everything covered?"."""
     universe = entries()
-    table: dict[str, dict[str, Any]] = {e.id: {"spec": e.spec, "meaning": e.meaning, "items": [], "asserted": [], "findings": {}}
-                                   for e in universe}
+    table: dict[str, dict[str, Any]] = {
+        e.id: {"spec": e.spec, "meaning": e.meaning, "items": [], "asserted": [], "findings": {}} for e in universe}
 
     def settled(e: Entry) -> bool:
         row = table[e.id]
@@ -473,5 +472,6 @@ def variant_coverage(items: Sequence[Any], *, enough: int | None = None) -> dict
     return {"variants": table, "uncovered": uncovered, "unreachable": dict(UNREACHABLE)}
 
 
-__all__ = ["Entry", "Finding", "Recording", "NO_BEHAVIOUR", "UNREACHABLE", "RELATIONS", "entries", "applies",
-           "counterfactual", "record", "discriminate", "relation_view", "item_coverage", "variant_coverage"]
+__all__ = ["Entry", "Finding", "Recording", "NO_BEHAVIOUR", "UNREACHABLE", "RELATIONS", "ASSERTED_KINDS", "entries",
+           "applies", "counterfactual", "record", "discriminate", "relation_view", "item_coverage",
+           "variant_coverage"]
