@@ -105,6 +105,11 @@ def test_relation_views_hold_only_what_the_relation_decides():
     manip = V.relation_view("G_manip", reply)
     assert manip[0] == {"0,0": [2]} and manip[1] == {"0,0": list(range(50, 114))}
     assert V.relation_view("G_handoff", reply, events_only=True) == [{}, [{"type": "handoff_started"}]]
+    # a difference in a view is reported as a pointer into the reply
+    assert V.relation_path("G_obs", "/0,0/3/robot") == "/observations/0,0/neighbours/3/robot"
+    assert V.relation_path("G_handoff", "/0/0,0/5") == "/masks/0,0/39"  # HANDOFF0 + 5
+    assert V.relation_path("G_manip", "/1/1,1/0") == "/masks/1,1/50"  # OP0
+    assert V.relation_path("G_manip", "/0/0,0/1/id") == "/observations/0,0/operation_options/1/id"
 
 
 # ------------------------------------------------------------------------------------------ discrimination

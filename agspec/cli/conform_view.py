@@ -266,10 +266,10 @@ def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table
             where = first[1]["where"]
             shown = f"{first[0]}" + ("" if where == "witnessed" else f" at tick {first[1]['tick']}: {where}")
         bad = entry.id in variants["uncovered"]
+        asserted = "n/a" if entry.kind == "witness" else str(len(row["asserted"]))  # nothing to assert against
         table.add_row(entry.id, entry.spec,
                       f"[bold red]{len(row['items'])}[/]" if bad and not row["items"] else str(len(row["items"])),
-                      f"[bold red]{len(row['asserted'])}[/]" if bad and row["items"] else str(len(row["asserted"])),
-                      shown)
+                      f"[bold red]{asserted}[/]" if bad and row["items"] else asserted, shown)
     return table
 
 

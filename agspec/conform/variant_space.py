@@ -313,6 +313,20 @@ def relation_view(relation: str, reply: Mapping[str, Any], events_only: bool = F
             _events(reply, ("support", "proposal_created", "admitted"))]  # R-CANDIDATES, R-ADMISSION
 
 
+def relation_path(relation: str, pointer: str) -> str:
+    """A pointer into :func:`relation_view` as a pointer into the reply (or the events it came from)."""
+    tokens = parse(pointer)
+    if relation == "G_obs":
+        return "/observations/" + "/".join(tokens[:1] + ["neighbours"] + tokens[1:])
+    part, rest = (tokens[0], tokens[1:]) if tokens else ("", [])
+    if part == str(len(relation_view(relation, {})) - 1):
+        return "/events (" + "/".join(rest) + ")"
+    if relation == "G_handoff" or part == "1":  # a mask slice: its index back to the action
+        offset = HANDOFF0 if relation == "G_handoff" else OP0
+        return "/masks/" + "/".join(rest[:1] + [str(offset + int(rest[1]))] if len(rest) > 1 else rest)
+    return "/observations/" + "/".join(rest[:1] + ["operation_options"] + rest[1:])
+
+
 @dataclass(frozen=True)
 class Finding:
     """How an item catches a simulator that reads the counterfactual: the first differing reply
@@ -368,7 +382,7 @@ def discriminate(item: Any, rec: Recording, cf_instance: Mapping[str, Any],
         if "" not in found and not same:
             d = compare_replies(index - 1, ref, reply, REPLY_PARTS)
             if d is not None:
-                found[""] = (index - 1, d.pointer or d.where)
+                found[""] = (index - 1, d.path)
         if not same and not _same(ref, reply, STATE_PARTS):
             states_agree[0] = False  # this reply's observations and masks follow from another state
         for relation in relations:
@@ -377,7 +391,7 @@ def discriminate(item: Any, rec: Recording, cf_instance: Mapping[str, Any],
                 a, b = relation_view(relation, ref, only), relation_view(relation, reply, only)
                 diff = None if a == b else first_difference(a, b)
                 if diff is not None:
-                    found[relation] = (index - 1, diff[0])
+                    found[relation] = (index - 1, relation_path(relation, diff[0]))
         if not states_agree[0] or ("" in found and all(r in found for r in relations)):
             return case is None
         return False
@@ -421,7 +435,7 @@ def item_coverage(item: Any, universe: Sequence[Entry] | None = None) -> dict[st
     for entry in applicable:
         if entry.kind == "witness":
             if _witnessed(entry, rec):
-                out[entry.id] = Finding(-1, "witnessed", item.kind == "case")
+                out[entry.id] = Finding(-1, "witnessed", False)  # no counterfactual: nothing to assert
             continue
         cf = counterfactual(entry, item.instance)
         if cf is None or cf == item.instance:
@@ -473,5 +487,5 @@ def variant_coverage(items: Sequence[Any], *, enough: int | None = None) -> dict
 
 
 __all__ = ["Entry", "Finding", "Recording", "NO_BEHAVIOUR", "UNREACHABLE", "RELATIONS", "ASSERTED_KINDS", "entries",
-           "applies", "counterfactual", "record", "discriminate", "relation_view", "item_coverage",
+           "applies", "counterfactual", "record", "discriminate", "relation_view", "relation_path", "item_coverage",
            "variant_coverage"]
