@@ -117,11 +117,17 @@ def test_usage_errors_exit_2():
 
 
 def test_coverage_json():
-    result = conform("--coverage", "--format", "json")
+    # a short run: the variant space is measured over the items --episodes and --ticks select
+    result = conform("--coverage", "--format", "json", "--episodes", "1", "--ticks", "5")
     cov = json.loads(result.output)
-    assert set(cov) == {"rules", "invariants", "values", "uncovered"}  # values: F-CONFORM-COVERAGE
+    # values and variants: F-CONFORM-COVERAGE
+    assert set(cov) == {"rules", "invariants", "values", "variants", "unreachable", "uncovered"}
     assert all(k.startswith("R-") for k in cov["rules"]) and all(k.startswith("INV-") for k in cov["invariants"])
     assert cov["values"]["value:support_fraction_1/3"] and cov["values"]["event:release"]
+    rho = cov["variants"]["profile:rho_conf=0.4"]
+    assert rho["spec"] == "PR-VARIANT" and rho["asserted"] and set(rho["asserted"]) <= set(rho["items"])
+    assert all(f["tick"] >= -1 and f["where"] for f in rho["findings"].values())
+    assert {e for e in cov["uncovered"] if not e.startswith("topology:")} == set()
     from agspec.conform.invariants import INVARIANT_IDS
 
     assert set(INVARIANT_IDS) <= set(cov["invariants"])

@@ -12,6 +12,7 @@ mutant must pass the whole conformance suite and lockstep catalogue episodes.
 from __future__ import annotations
 
 import fnmatch
+import functools
 import json
 import shlex
 import sys
@@ -58,6 +59,23 @@ def workload_item(m: registry.Mutant) -> Item:
                 controller={"name": w.controller, "seed": w.seed}, tags=("mutant",), location=w.instance)
 
 
+@functools.lru_cache(maxsize=1)
+def default_run() -> tuple[Item, ...]:
+    """The items of `agspec conform --impl SIM` with its default options (suite cases, catalogue episodes)."""
+    from agspec.conform.cases import load_suite
+    from agspec.conform.items import default_run as items
+
+    return tuple(items(load_suite()))
+
+
+def workload_items(m: registry.Mutant) -> list[Item]:
+    """A hard-coding mutant (``reads``): the items of the default run whose instance it changes — on every
+    other item it is the reference itself, so the default run fails it iff these fail it."""
+    if m.workload.instance != registry.DEFAULT_RUN:
+        return [workload_item(m)]
+    return [it for it in default_run() if m.reads(it.instance) != it.instance]
+
+
 def reported_ids(failure: dict | None) -> list[str]:
     """Everything the harness reported that identifies a failure."""
     if not failure:
@@ -95,8 +113,13 @@ def run_mutant(m: registry.Mutant) -> dict:
     start = time.perf_counter()
     # a level mutant must fail `--require` of the level it only pretends to reach (F-CONFORM-LEVELS)
     require = tuple(i.split(":", 1)[1] for i in m.ids if i.startswith("level:"))
-    summary = runner.run([workload_item(m)], sim_spec(m.name), timeout=timeout_for(m), require=require)
-    result, outcome = summary.results[0]
+    items = workload_items(m)
+    summary = runner.run(items, sim_spec(m.name), timeout=timeout_for(m), require=require, max_fail=1)
+    if not summary.results:
+        return {"name": m.name, "breaks": m.breaks, "want": m.outcome, "outcome": "none", "ids": [], "hit": None,
+                "killed": False, "exit": summary.exit_code, "tick": None, "seconds": time.perf_counter() - start,
+                "message": "no item of the default run has an instance the mutant reads differently", "item": None}
+    result, outcome = next(((r, o) for r, o in summary.results if o != "pass"), summary.results[0])
     ids = reported_ids(result.failure) + [f"level:{p}" for p in summary.missing]
     if summary.nondeterministic is not None:
         ids.append("nondeterministic")
@@ -107,7 +130,7 @@ def run_mutant(m: registry.Mutant) -> dict:
             "killed": outcome == m.outcome and hit is not None and summary.exit_code == want_exit(m),
             "exit": summary.exit_code,
             "tick": (result.failure or {}).get("tick"), "seconds": time.perf_counter() - start,
-            "message": result.message}
+            "message": result.message, "item": result.item.id}
 
 
 @pytest.fixture(scope="module")
@@ -216,12 +239,12 @@ def test_invariant_checker_alone_catches_invariant_mutants(name, invariant_resul
 def test_mutation_score(mutant_results, invariant_results, capsys):
     rows = list(mutant_results.values())
     killed = sum(r["killed"] for r in rows)
-    lines = ["", f"{'mutant':<23} {'breaks':<37} {'outcome':<7} {'tick':>4}  {'identified by (conform)':<32} "
+    lines = ["", f"{'mutant':<29} {'breaks':<37} {'outcome':<7} {'tick':>4}  {'identified by (conform)':<32} "
                  "invariants alone (own trace)", "-" * 132]
     for r in rows:
         mark = "" if r["killed"] else "  SURVIVED"
         alone = ", ".join(invariant_results.get(r["name"], [])) or ("-" if r["want"] == "fail" else "n/a")
-        lines.append(f"{r['name']:<23} {r['breaks']:<37} {r['outcome']:<7} {str(r['tick']):>4}  "
+        lines.append(f"{r['name']:<29} {r['breaks']:<37} {r['outcome']:<7} {str(r['tick']):>4}  "
                      f"{str(r['hit'] or r['ids']):<32} {alone}{mark}")
     lines.append("-" * 132)
     lines.append(f"mutation score: {killed}/{len(rows)} = {100.0 * killed / len(rows):.0f} % "
@@ -250,8 +273,10 @@ def test_unmutated_adapter_passes_the_suite_and_episodes():
 
 
 def test_workloads_pass_without_the_mutant():
-    """No false alarm: every mutant's workload passes on the unmutated adapter, so a kill is the mutant's doing."""
-    items = [workload_item(m) for m in registry.MUTANTS.values()]
+    """No false alarm: every mutant's workload passes on the unmutated adapter, so a kill is the mutant's doing.
+    (Suite cases of the default-run workloads are left to test_unmutated_adapter_passes_the_suite_and_episodes,
+    which runs every case on the same adapter.)"""
+    items = [it for m in registry.MUTANTS.values() for it in workload_items(m) if it.kind != "case"]
     unique = list({it.id: it for it in items}.values())
     summary = runner.run(unique, sim_spec(), timeout=10.0)
     assert [(r.item.id, o, r.message) for r, o in summary.results if o != "pass"] == []

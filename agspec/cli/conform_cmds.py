@@ -37,7 +37,9 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
 @click.option("--ticks", type=int, default=60, show_default=True, help="Ticks per catalogue episode.")
 @FORMAT_OPTION
 @click.option("--validate-protocol", is_flag=True, help="Validate every message in both directions against the schemas.")
-@click.option("--coverage", is_flag=True, help="Print which rules and invariants the suite exercises, and exit.")
+@click.option("--coverage", is_flag=True,
+              help="Print which rules, invariants, values and variant-space entries the suite and the default "
+                   "episodes exercise (F-CONFORM-COVERAGE), and exit: 1 if anything is uncovered.")
 @click.option("--replay", "replay_path", type=click.Path(dir_okay=False), default=None,
               help="Re-run a reproducer file (saved with a divergence).")
 @click.option("--no-suite", is_flag=True, help="Skip the conformance suite (run only catalogue episodes).")
@@ -65,7 +67,7 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
     from agspec.cli import conform_view as view
 
     if coverage:
-        raise SystemExit(view.show_coverage(suite_dir, fmt))
+        raise SystemExit(view.show_coverage(suite_dir, fmt, episodes, ticks))
     for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("--episodes", episodes, 0),
                              ("--ticks", ticks, 0)):
         if value < low or (name == "--impl-timeout" and value <= 0):

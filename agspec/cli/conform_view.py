@@ -42,7 +42,7 @@ def _load_suite(suite_dir: str | None):
 def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, suite_dir: str | None,
                 episodes: int, ticks: int) -> tuple[list, str, set[str], bool]:
     """(items, impl spec, every id that exists, whether the suite was loaded)."""
-    from agspec.conform.items import catalogue_episodes, from_case, from_reproducer
+    from agspec.conform.items import catalogue_episodes, default_run, from_reproducer
 
     if replay_path:
         from agspec.conform.compare import ReproError, load_reproducer
@@ -58,26 +58,21 @@ def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, 
         return [item], spec, {item.id}, False
     if not impl_spec:
         fail("missing --impl SPEC (reference, python:pkg.module:factory, or a command line)")
-    items = []
-    suite_loaded = False
-    if not no_suite:
-        items += [from_case(c) for c in _load_suite(suite_dir)]
-        suite_loaded = True
-    items += catalogue_episodes(episodes, ticks)
-    return items, impl_spec, {i.id for i in items}, suite_loaded
+    items = catalogue_episodes(episodes, ticks) if no_suite else default_run(_load_suite(suite_dir), episodes, ticks)
+    return items, impl_spec, {i.id for i in items}, not no_suite
 
 
 def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
     if not path:
         return {}, []
-    from agspec.catalogue import OFFICIAL_SCENARIOS
     from agspec.conform.expect import ExpectError, load_expectations, stale_entries
+    from agspec.conform.items import EPISODE_SCENARIOS
 
     try:
         expectations = load_expectations(path)
     except ExpectError as exc:
         fail(str(exc), exc.exit_code)
-    return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=OFFICIAL_SCENARIOS)
+    return expectations, stale_entries(expectations, universe, suite_loaded=suite_loaded, scenarios=EPISODE_SCENARIOS)
 
 
 # --------------------------------------------------------------------------- running
@@ -214,18 +209,23 @@ def json_summary(summary) -> dict[str, Any]:
 # --------------------------------------------------------------------------- coverage
 
 
-def show_coverage(suite_dir: str | None, fmt: str) -> int:
+def show_coverage(suite_dir: str | None, fmt: str, episodes: int, ticks: int) -> int:
     from agspec.conform.cases import coverage
+    from agspec.conform.items import default_run, from_case
+    from agspec.conform.values import value_coverage
+    from agspec.conform.variant_space import entries, variant_coverage
 
     cases = _load_suite(suite_dir)
-    from agspec.conform.items import from_case
-    from agspec.conform.values import value_coverage
-
     cov = coverage(cases)
     with stderr.status("running every case on the reference for value coverage …"):
         values = value_coverage([from_case(c) for c in cases])  # F-CONFORM-COVERAGE
+    items = default_run(cases, episodes, ticks)
+    with stderr.status(f"running the {len(items)} items of the default run against hard-coded values …"):
+        variants = variant_coverage(items)  # F-CONFORM-COVERAGE: the variant space
     cov["values"] = values["values"]
-    cov["uncovered"] = cov["uncovered"] + values["uncovered"]
+    cov["variants"] = variants["variants"]
+    cov["unreachable"] = variants["unreachable"]
+    cov["uncovered"] = cov["uncovered"] + values["uncovered"] + variants["uncovered"]
     if fmt == "json":
         emit_json(cov)
     else:
@@ -247,11 +247,38 @@ def show_coverage(suite_dir: str | None, fmt: str) -> int:
             table.add_row(entry, VALUE_CLASSES.get(entry.split(":", 1)[1], "") if entry.startswith("value:") else "",
                           str(n) if n else "[bold red]0[/]")
         stdout.print(table)
+        stdout.print(_variant_table(entries(), variants, len(items)))
+        for entry, why in variants["unreachable"].items():
+            stdout.print(f"not an entry: {entry} — {why}", markup=False)
         if cov["uncovered"]:
             stdout.print(f"[bold red]uncovered[/]: {', '.join(cov['uncovered'])}")
         else:
-            stdout.print("[green]every rule, invariant, field, action class, event type and value class is covered[/]")
+            stdout.print("[green]every rule, invariant, field, action class, event type, value class and variant "
+                         "entry is covered[/]")
     return EXIT_INVALID if cov["uncovered"] else EXIT_OK
+
+
+def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table:
+    """F-CONFORM-COVERAGE: per entry of the variant space, the items that catch a simulator reading the
+    official value instead, and the cases whose expectations catch it."""
+    table = Table(title=f"Variant space: items of the default run ({n_items}) that fail a simulator reading "
+                        "the official value instead")
+    for name, justify in (("Entry", "left"), ("Spec", "left"), ("Items", "right"), ("Asserted", "right"),
+                          ("First caught by", "left")):
+        table.add_column(name, justify=justify, overflow="fold")
+    for entry in universe:
+        row = variants["variants"][entry.id]
+        first = next(iter(row["findings"].items()), None)
+        shown = ""
+        if first is not None:
+            where = first[1]["where"]
+            shown = f"{first[0]}" + ("" if where == "witnessed" else f" at tick {first[1]['tick']}: {where}")
+        bad = entry.id in variants["uncovered"]
+        asserted = "n/a" if entry.kind == "witness" else str(len(row["asserted"]))  # nothing to assert against
+        table.add_row(entry.id, entry.spec,
+                      f"[bold red]{len(row['items'])}[/]" if bad and not row["items"] else str(len(row["items"])),
+                      f"[bold red]{asserted}[/]" if bad and row["items"] else asserted, shown)
+    return table
 
 
 # --------------------------------------------------------------------------- agspec check

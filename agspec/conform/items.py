@@ -2,7 +2,8 @@
 
 * a **case** of the conformance suite (:mod:`agspec.conform.cases`): its instance, execution seed and
   resolved action script — or its controller driver — and its expectations;
-* a catalogue **episode** (F-CONFORM): each official scenario at suite index 0, driven by
+* a catalogue **episode** (F-CONFORM): each catalogue scenario (:data:`EPISODE_SCENARIOS`: the
+  nine official ones and the three matched geometry controls) at suite index 0, driven by
   the greedy controller (``e-{scenario}-greedy``) and by seeded random-masked controllers
   (``e-{scenario}-random-{k}``, seed k), acting on the *reference's* observations; ``--episodes N``
   runs the greedy one and N - 1 random ones per scenario, ``--ticks T`` steps each;
@@ -14,9 +15,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
-from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
+from agspec.catalogue import GEOMETRY_MATCHED, OFFICIAL_SCENARIOS, load_scenario_bundle
 from agspec.conform.cases import Case
 from agspec.ir.instance import make_instance
+
+# F-CONFORM: the scenarios of the catalogue episodes — every catalogue scenario, the matched geometry
+# controls included (their conflict variants are instance values a simulator must read)
+EPISODE_SCENARIOS: tuple[str, ...] = (*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED)
+# the default run of `agspec conform`: --episodes and --ticks
+DEFAULT_EPISODES, DEFAULT_TICKS = 2, 60
 
 
 @dataclass(frozen=True)
@@ -53,12 +60,12 @@ def from_case(case: Case) -> Item:
 
 def catalogue_episodes(episodes: int, ticks: int, scenarios: Sequence[str] | None = None,
                        index: int = 0) -> list[Item]:
-    """F-CONFORM: per official scenario, greedy plus ``episodes - 1`` seeded random episodes."""
+    """F-CONFORM: per catalogue scenario, greedy plus ``episodes - 1`` seeded random episodes."""
 
     if episodes <= 0 or ticks <= 0:
         return []
     out = []
-    for name in scenarios or OFFICIAL_SCENARIOS:
+    for name in scenarios or EPISODE_SCENARIOS:
         sc, recipes, profile = load_scenario_bundle(name)
         inst = make_instance(sc, recipes, profile, index=index)
         seed = inst["seeds"]["execution"]
@@ -85,4 +92,10 @@ def from_reproducer(data: Mapping[str, Any], path: str) -> Item:
     )
 
 
-__all__ = ["Item", "from_case", "catalogue_episodes", "from_reproducer"]
+def default_run(cases: Sequence[Case], episodes: int = DEFAULT_EPISODES, ticks: int = DEFAULT_TICKS) -> list[Item]:
+    """The items of ``agspec conform`` without selection: every case, then the catalogue episodes."""
+    return [from_case(c) for c in cases] + catalogue_episodes(episodes, ticks)
+
+
+__all__ = ["Item", "EPISODE_SCENARIOS", "DEFAULT_EPISODES", "DEFAULT_TICKS", "from_case", "catalogue_episodes",
+           "default_run", "from_reproducer"]

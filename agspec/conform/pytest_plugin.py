@@ -12,7 +12,7 @@ Options (group "agspec"):
 ``--agspec-impl SPEC``      the implementation (``reference``, ``python:pkg.module:factory`` or a command
                             line, as ``agspec conform --impl``); without it the plugin does nothing;
 ``--agspec-ticks T``        ticks per catalogue episode (default 60, as ``agspec conform --ticks``);
-``--agspec-episodes N``     lockstep episodes per official scenario (greedy, then seeded random; default
+``--agspec-episodes N``     lockstep episodes per catalogue scenario (greedy, then seeded random; default
                             2 as ``agspec conform --episodes``, 0 = suite cases only);
 ``--agspec-expect FILE``    expected failures (F-EXPECT): a listed case that fails as listed is xfailed,
                             one that passes fails (XPASS), an entry naming nothing fails (stale);
@@ -48,7 +48,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--agspec-ticks", metavar="T", type=int, default=60,
                     help="ticks per catalogue episode (default 60, as agspec conform)")
     group.addoption("--agspec-episodes", metavar="N", type=int, default=2,
-                    help="lockstep catalogue episodes per official scenario: greedy plus N-1 seeded random "
+                    help="lockstep catalogue episodes per catalogue scenario: greedy plus N-1 seeded random "
                          "(default 2, as agspec conform; 0: suite cases only)")
     group.addoption("--agspec-expect", metavar="FILE", default=None,
                     help="expected-failures file (YAML/JSON: {case id: {outcome: fail|error, reason}})")
@@ -85,10 +85,9 @@ class _State:
         self.invariant_checks = 0
 
     def load(self) -> None:
-        from agspec.catalogue import OFFICIAL_SCENARIOS
         from agspec.conform import expect
         from agspec.conform.cases import SuiteError, load_suite
-        from agspec.conform.items import catalogue_episodes, from_case
+        from agspec.conform.items import EPISODE_SCENARIOS, catalogue_episodes, from_case
         from agspec.conform.golden import cache_dir
         from agspec.conform.impl import ImplSpecError, make_impl
         from agspec.conform.lockstep import Options
@@ -119,7 +118,7 @@ class _State:
                 self.items = []
                 return
             self.stale = expect.stale_entries(self.expectations, {i.id for i in self.items}, suite_loaded=True,
-                                              scenarios=OFFICIAL_SCENARIOS)
+                                              scenarios=EPISODE_SCENARIOS)
 
     def implementation(self):
         if self.impl is None:  # closed after the session, or never resolved

@@ -88,6 +88,40 @@ profile flat-v1 {
 """,
 }
 
+
+
+def derived(name: str, doc: str, **changes: str) -> str:
+    """A profile that is the official abstract-v1 (catalogue text, without its named variants) with
+    some fields changed: ``changes`` maps a field to the text after its name."""
+    import re
+
+    text = (catalogue_dir() / "profiles" / "abstract-v1.ag").read_text(encoding="utf-8")
+    body = text[text.index("profile abstract-v1 {"):]
+    body = "\n".join(line for line in body.splitlines() if not line.strip().startswith("variant "))
+    body = body.replace("profile abstract-v1 {", f"profile {name} {{\n    doc \"{doc}\"", 1)
+    for key, value in changes.items():
+        body, n = re.subn(rf"^(\s*){key} .*$", rf"\g<1>{key} {value}", body, count=1, flags=re.M)
+        if n != 1:
+            raise SystemExit(f"profile {name}: abstract-v1 has no field {key}")
+    return body + "\n"
+
+
+# Profiles that differ from abstract-v1 in ONE value: a simulator that hard-codes the official value
+# fails the cases on them (F-CONFORM-COVERAGE, the variant space).
+PROFILES.update({
+    "notraj-v1": derived("notraj-v1", "abstract-v1 with trajectory conflicts off (motion planning on)",
+                         trajectory_conflicts="off"),
+    "nomotion-v1": derived("nomotion-v1", "abstract-v1 with motion planning off (trajectory conflicts on)",
+                           motion_planning="off"),
+    "reach-v1": derived("reach-v1", "abstract-v1 with reach 1.25", reach="1.25"),
+    "speed-v1": derived("speed-v1", "abstract-v1 with Cartesian speed 0.0625", speed="0.0625"),
+    "joint-v1": derived("joint-v1", "abstract-v1 with joint speed 2.0", joint_speed="2.0"),
+    "retreat-v1": derived("retreat-v1", "abstract-v1 with retreat fraction 1.0", retreat_fraction="1.0"),
+    "clearance-v1": derived("clearance-v1", "abstract-v1 with clearance 0.25", clearance="0.25"),
+    "handoff2-v1": derived("handoff2-v1", "abstract-v1 with handoff process duration 2",
+                           durations="pick 2 handoff 2 deliver 2"),
+})
+
 RECIPES = {
     "pair": """
 recipe pair {
@@ -228,6 +262,60 @@ recipe bench {
 """,
 }
 
+RECIPES["twostep"] = """
+recipe twostep {
+    doc "two unary steps on one holder: prep (A -> P), then fin (P -> FINAL), one tick each"
+    raw A
+    operation prep {
+        type prepare
+        inputs A -> P
+        team 1
+        roles operator
+        duration 1
+    }
+    operation fin {
+        type finish
+        after prep
+        inputs P -> FINAL
+        team 1
+        roles operator
+        duration 1
+    }
+}
+"""
+
+RECIPES["xor_press"] = """
+recipe xor_press {
+    doc "XOR group `route`: glue (A -> Q, needs the press) or weld (B -> Q); finish (Q -> FINAL) after the group"
+    raw A, B
+    resource press capacity 1
+    operation glue {
+        type glue
+        inputs A -> Q
+        team 1
+        roles operator
+        uses press
+        duration 2
+    }
+    operation weld {
+        type weld
+        inputs B -> Q
+        team 1
+        roles operator
+        duration 3
+    }
+    operation finish {
+        type finish
+        after route
+        inputs Q -> FINAL
+        team 1
+        roles operator
+        duration 1
+    }
+    xor route = glue | weld
+}
+"""
+
 # Official recipes reused by some instances.
 CATALOGUE_RECIPES = ("flow_serial_3",)
 
@@ -238,6 +326,7 @@ def scenario_text(
     grid: str,
     recipe: str,
     profile: str,
+    variant: str | None = None,
     release: int = 50,
     wip: int = 1,
     evaluation: str = "continuing horizon 40",
@@ -251,7 +340,7 @@ scenario {name} {{
     level unit
     grid {grid}
     recipes {recipe}
-    profile {profile}
+    profile {profile}{f" variant {variant}" if variant else ""}
     release every {release}
     wip {wip}
     evaluation {evaluation}
@@ -344,6 +433,44 @@ INSTANCES: dict[str, dict[str, Any]] = {
     "solo-2x2-official": dict(grid="2 x 2", recipe="solo", profile="abstract-v1", release=1, wip=2,
                               evaluation="continuing horizon 30",
                               patches=[source_rows({"A": 1}), shelf_access({0: [0, 1], 1: [0, 1]})]),
+
+    # ---- the variant space (F-CONFORM-COVERAGE): each instance differs from the official
+    # configuration in one value a simulator must read.
+    # S-RULE-VARIANTS: each geometry switch off on its own.
+    "pair-2x2-notraj": dict(grid="2 x 2", recipe="pair", profile="notraj-v1",
+                            patches=[shelf_access({0: [0, 1], 1: [0, 1]})]),
+    "pair-2x2-nomotion": dict(grid="2 x 2", recipe="pair", profile="nomotion-v1",
+                              patches=[shelf_access({0: [0, 1], 1: [0, 1]})]),
+    # PR-VARIANT: the conflict variants of abstract-v1 (rho_conf 0.12 / 0.40) and a larger clearance.
+    # PR-VARIANT: the conflict variants of abstract-v1 (rho_conf 0.12 / 0.40) and a larger clearance (0.25):
+    # every product's A comes from shelf row 0, which both left robots can reach.
+    **{f"twostep-2x2-{tag}": dict(grid="2 x 2", recipe="twostep", profile=profile, variant=variant, release=1, wip=2,
+                                  evaluation="continuing horizon 30",
+                                  patches=[source_rows({"A": 0}), shelf_access({0: [0, 1], 1: [0, 1]})])
+       for tag, profile, variant in (("low", "abstract-v1", "conflict-low"), ("high", "abstract-v1", "conflict-high"),
+                                     ("clearance", "clearance-v1", None))},
+    # PR-VARIANT: the spacing variants (paper case 1 on a scaled line).
+    "pair-1x2-s075": dict(grid="1 x 2", recipe="pair", profile="abstract-v1", variant="spacing-0.75"),
+    "pair-1x2-s125": dict(grid="1 x 2", recipe="pair", profile="abstract-v1", variant="spacing-1.25"),
+    # PR-ABSTRACT-V1: one robot parameter changed each.
+    "duo-2x2-reach": dict(grid="2 x 2", recipe="duo", profile="reach-v1"),
+    "solo-1x2-speed": dict(grid="1 x 2", recipe="solo", profile="speed-v1"),
+    "solo-1x2-joint": dict(grid="1 x 2", recipe="solo", profile="joint-v1"),
+    "solo-1x2-retreat": dict(grid="1 x 2", recipe="solo", profile="retreat-v1"),
+    "pair-1x2-handoff2": dict(grid="1 x 2", recipe="pair", profile="handoff2-v1"),
+    # S-COORDINATION: the cue hidden; a support timeout other than 3.
+    "duo-1x2-hidden-flat": dict(grid="1 x 2", recipe="duo", profile="flat-v1",
+                                coordination="support_timeout 3 switch_lock 1 support_visible off "
+                                             "bilateral_handoff on"),
+    "duo-1x2-timeout5-flat": dict(grid="1 x 2", recipe="duo", profile="flat-v1",
+                                  coordination="support_timeout 5 switch_lock 1 support_visible on "
+                                               "bilateral_handoff on"),
+    # RC-RESOURCES / S-RESOURCES: a zero-capacity resource (scenario override of the recipe's 1) on one
+    # XOR alternative; the other alternative keeps the recipe deliverable.
+    "xor0-2x2-flat": dict(grid="2 x 2", recipe="xor_press", profile="flat-v1", resources="resource press capacity 0"),
+    # S-EVALUATION: batch of two products, an opportunity every 2 ticks.
+    "solo-1x2-batch2-flat": dict(grid="1 x 2", recipe="solo", profile="flat-v1", release=2, wip=2,
+                                 evaluation="batch 2 timeout 20"),
 }
 
 

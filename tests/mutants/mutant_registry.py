@@ -16,7 +16,12 @@ Every mutant declares what the harness must report for it:
 * ``workload`` — a small instance and controller that trigger the mutant within a few ticks;
 * ``invariant`` — for mutants that break an invariant, the invariant ID the invariant checker must report on
   the mutant's own trace *without* the reference (None for departures only a comparison can see: a
-  transfer without consent, an admission without support, a wrong duration).
+  transfer without consent, an admission without support, a wrong duration);
+* ``reads`` — for the mutants that hard-code an instance value (the official one) instead of reading
+  it: the instance the mutant actually simulates, as a pure function of the one it is sent.  Their
+  workload is the **default run** of ``agspec conform`` (:data:`DEFAULT_RUN`): such a mutant behaves
+  exactly as the reference on every item whose instance ``reads`` leaves unchanged, so the default
+  run fails it iff the items ``reads`` changes fail it.
 
 This module is test code: nothing in the product imports it.
 """
@@ -56,15 +61,20 @@ class Session:
         self.before.setdefault(cmd, []).append(fn)
 
 
+DEFAULT_RUN = "default-run"  # the workload of the hard-coding mutants: every item of `agspec conform`
+
+
 @dataclass(frozen=True)
 class Workload:
-    instance: str  # file name under tests/mutants/instances, or "catalogue:<scenario>:<index>"
+    instance: str  # file name under tests/mutants/instances, "catalogue:<scenario>:<index>" or DEFAULT_RUN
     controller: str = "greedy"
     ticks: int = 12
     seed: int = 1
 
     def path(self) -> Path | None:
-        return None if self.instance.startswith("catalogue:") else INSTANCES / self.instance
+        if self.instance.startswith("catalogue:") or self.instance == DEFAULT_RUN:
+            return None
+        return INSTANCES / self.instance
 
 
 @dataclass(frozen=True)
@@ -77,7 +87,7 @@ class Mutant:
     ids: tuple[str, ...]
     workload: Workload
     invariant: str | None = None  # what the invariant checker alone (no reference) must report
-
+    reads: Callable[[dict], dict] | None = None  # a hard-coding mutant: the instance it simulates
 
 
 
@@ -92,6 +102,27 @@ def mutant(name: str, breaks: str, outcome: str, ids: tuple[str, ...], workload:
         return fn
 
     return register
+
+
+def hard_coded(name: str, breaks: str, ids: tuple[str, ...], description: str,
+               edit: Callable[[dict], None]) -> None:
+    """Register a mutant that ignores an instance value and uses the official one: ``edit`` rewrites the
+    instance it is sent (in place) before it loads it — what a simulator with a constant in its code
+    does.  Workload: the default run of ``agspec conform``."""
+
+    def reads(instance: dict) -> dict:
+        out = json.loads(json.dumps(instance))
+        edit(out)
+        return out
+
+    def apply(session: Session) -> None:
+        def on_load(msg: dict, session: Session) -> None:
+            if isinstance(msg.get("instance"), dict):
+                msg["instance"] = reads(msg["instance"])
+
+        session.on("load", on_load)
+
+    MUTANTS[name] = Mutant(name, breaks, description, apply, "fail", ids, Workload(DEFAULT_RUN), None, reads)
 
 
 # =============================================================================================
@@ -394,6 +425,89 @@ def mask_hides(session: Session) -> None:
         return tuple(mask)
 
     tick.action_mask = action_mask
+
+
+# =============================================================================================
+# variant parameters hard-coded: the official value instead of the instance's (S-RULE-VARIANTS,
+# PR-VARIANT, PR-ABSTRACT-V1, S-COORDINATION, S-SHELVES, S-EVALUATION, RC-RESOURCES)
+
+
+def _set(document: str, path: str, value: Any) -> Callable[[dict], None]:
+    def edit(inst: dict) -> None:
+        holder = inst[document]
+        *parents, key = path.split("/")
+        for p in parents:
+            holder = holder[p]
+        holder[key] = value
+
+    return edit
+
+
+# a divergence anywhere in a reply: which part shows first depends on the item that catches the mutant
+ANY_PART = ("/state", "/events", "/observations", "/masks", "/done")
+
+for _name, _doc, _path, _value, _breaks in (
+    ("hardcode-rho-conf", "profile", "rho_conf", 0.25, "PR-VARIANT (rho_conf)"),
+    ("hardcode-spacing", "profile", "spacing", 1.0, "PR-VARIANT (spacing)"),
+    ("hardcode-role-offset", "profile", "role_target_offset", 0.12, "G-ROLE-TARGET (offset)"),
+    ("hardcode-reach", "profile", "reach", 1.5, "G-REACH (reach)"),
+    ("hardcode-clearance", "profile", "clearance", 0.1, "G-CONFLICT (clearance)"),
+    ("hardcode-speed", "profile", "speed", 1.0, "G-MOTION (speed)"),
+    ("hardcode-joint-speed", "profile", "joint_speed", 1.0, "G-MOTION (joint speed)"),
+    ("hardcode-retreat", "profile", "retreat_fraction", 0.25, "G-DURATION (retreat fraction)"),
+    ("hardcode-pick-duration", "profile", "durations/pick", 2, "G-DURATION (pick)"),
+    ("hardcode-handoff-duration", "profile", "durations/handoff", 1, "G-DURATION (handoff)"),
+    ("hardcode-deliver-duration", "profile", "durations/deliver", 2, "G-DURATION (deliver)"),
+    ("hardcode-motion-planning", "profile", "motion_planning", True, "S-RULE-VARIANTS (motion_planning)"),
+    ("hardcode-trajectory-conflicts", "profile", "trajectory_conflicts", True,
+     "S-RULE-VARIANTS (trajectory_conflicts)"),
+    ("hardcode-support-visible", "scenario", "coordination/support_visible", True,
+     "S-RULE-VARIANTS (support_visible)"),
+    ("hardcode-support-timeout", "scenario", "coordination/support_timeout", 3, "R-SUPPORT-LIFECYCLE (timeout)"),
+    ("hardcode-switch-lock", "scenario", "coordination/switch_lock", 1, "R-SWITCH-LOCK (lock)"),
+    ("hardcode-shelf-capacity", "scenario", "shelves/capacity", 6, "R-REPLENISH (capacity)"),
+    ("hardcode-replenish", "scenario", "shelves/replenish_interval", 5, "R-REPLENISH (interval)"),
+):
+    hard_coded(_name, _breaks, ANY_PART, f"Hard-coded {_path.replace('/', '.')} = {_value}: the instance's value "
+                                         "is never read.", _set(_doc, _path, _value))
+
+
+def _tied_switches(inst: dict) -> None:
+    inst["profile"]["trajectory_conflicts"] = inst["profile"].get("motion_planning", True)
+
+
+hard_coded("geometry-switches-tied", "S-RULE-VARIANTS (one switch)", ANY_PART,
+           "The two geometry switches read as one: trajectory conflicts follow motion planning.", _tied_switches)
+
+
+def _resources_exclusive(inst: dict) -> None:
+    names = {k for r in inst["recipes"].values() for k in r.get("resources") or {}}
+    inst["scenario"]["resources"] = {k: 1 for k in names | set(inst["scenario"].get("resources") or {})}
+
+
+hard_coded("resources-exclusive", "RC-RESOURCES (capacity)", ANY_PART,
+           "Every resource exclusive: declared capacities (2, 0, ...) are read as 1.", _resources_exclusive)
+
+
+def _recipe_capacities(inst: dict) -> None:
+    declared = {k for r in inst["recipes"].values() for k in r.get("resources") or {}}
+    inst["scenario"]["resources"] = {k: c for k, c in (inst["scenario"].get("resources") or {}).items()
+                                     if k not in declared}
+
+
+hard_coded("scenario-resources-ignored", "S-RESOURCES (override)", ANY_PART,
+           "The scenario's resource capacities are ignored: the recipes' apply.", _recipe_capacities)
+
+
+def _batch_ignored(inst: dict) -> None:
+    ev = inst["scenario"]["evaluation"]
+    if ev.get("mode") == "batch":
+        inst["scenario"]["evaluation"] = {"mode": "continuing", "horizon": ev["timeout"]}
+
+
+hard_coded("batch-ignored", "S-EVALUATION (batch)", ANY_PART,
+           "Batch mode ignored: releases go on after Z products and the run ends only at the timeout.",
+           _batch_ignored)
 
 
 # =============================================================================================
