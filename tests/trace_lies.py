@@ -171,6 +171,13 @@ def _alternatives(records: list[Json], r: int, ev: Json, key: str, rng: random.R
         kind, _, rest = value.partition("@")
         t, _, tail = rest.partition(":")
         return [f"{kind}@{int(t) + 1}:{tail}", f"{kind}@{max(0, int(t) - 1)}:{tail}"] if t.isdigit() else []
+    if key == "reason" and ev["type"] == "admission_failed" and not records[r].get("observations"):
+        # `invalid` (removed at t, its candidate left C_t) and `expired` (removed at t + 1, its clock
+        # ran out) of a record whose clock ends at t leave the same states; only the event's place
+        # among the record's other events, or the observations' C_t, tells them apart
+        prop = (records[r - 1]["state"].get("proposals") or {}).get(ev["candidate"]) if r > 0 else None
+        if prop is not None and prop["expires_at"] == records[r].get("t"):
+            return []
     if key == "reason":
         return [x for x in ("wip_cap", "realization_exhausted", "raw_material", "expired", "invalid")
                 if x != value and (x in ("expired", "invalid")) == (value in ("expired", "invalid"))]

@@ -303,6 +303,6 @@ def check_trace_command(path: str, fmt: str) -> int:
         stdout.print(d.render(), markup=False)
     stdout.print("[green]all invariants hold[/]" if report.ok else f"[bold red]{len(report.violations)} violation(s)[/]")
     stdout.print(f"[bold red]the trace as a whole is wrong ({len(whole)} problem(s))[/]" if whole
-                 else "[green]record count and footer metrics agree with the records[/]")
+                 else "[green]record count and footer metrics agree with the records; events agree with states[/]")
     return EXIT_OK if ok else EXIT_INVALID
 
