@@ -21,7 +21,6 @@ import json
 import random
 import sys
 import time
-from pathlib import Path
 
 from _common import ROOT, emit
 

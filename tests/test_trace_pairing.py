@@ -27,7 +27,6 @@ from hypothesis import strategies as st
 from agspec.catalogue import load_instance
 from agspec.cli.main import cli
 from agspec.controllers import CONTROLLERS
-from agspec.formats.trace import read_records
 from agspec.resources import conformance_dir
 from agspec.trace.emission import EMISSION, RESET
 from agspec.trace.pairing import pair_records
