@@ -224,3 +224,14 @@ def rec_proposals_before(scenario: str, rec: dict) -> dict:
     records = catalogue_trace(scenario, "random", 90)
     index = next(i for i, r in enumerate(records) if r is rec)
     return records[index - 1]["state"]["proposals"]
+
+
+def test_f_trace_pairing_records_without_events_are_judged_on_states_only(served, tmp_path):
+    """`events: null` (an implementation without the events capability, F-TRACE): nothing to pair."""
+    records = copy.deepcopy(served)
+    for rec in records[:-1]:
+        rec["events"] = None
+    records[-1]["metrics"] = {}
+    assert pair_records(records) == ([], 0)
+    code, out = _check(tmp_path, records)
+    assert code == 0 and out["whole_trace"] == [] and out["diagnostics"] == []

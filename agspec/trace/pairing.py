@@ -203,14 +203,18 @@ def pair_records(records: Sequence[Json]) -> tuple[list[Problem], int]:
         return [], 0
     problems: list[Problem] = []
     paired = 0
-    replay = Replay(model, 0, int(header["state"].get("t", 0)), before, {}, None, None)
-    replay.clock = replay.t
-    walk(replay, header.get("events") or [], RESET_STEPS)
-    problems += replay.problems + _compare(0, replay.state, after)
-    paired += 1
+    if header.get("events") is not None:  # null: the implementation reports no events (F-TRACE)
+        replay = Replay(model, 0, int(header["state"].get("t", 0)), before, {}, None, None)
+        replay.clock = replay.t
+        walk(replay, header["events"], RESET_STEPS)
+        problems += replay.problems + _compare(0, replay.state, after)
+        paired += 1
     previous = header["state"]
     for index, rec in enumerate(records[1:], start=1):
         if rec.get("type") != "tick":
+            continue
+        if rec.get("events") is None:
+            previous = rec.get("state", previous)
             continue
         try:
             state, previous = previous, rec["state"]
