@@ -279,7 +279,7 @@ def mutants(records: list[Json], rng: random.Random, limit: int) -> Iterator[Mut
             if not keys:
                 continue
             key = rng.choice(keys)
-            options = _alternatives(records, r, ev, key, rng)
+            options = [o for o in _alternatives(records, r, ev, key, rng) if o != ev[key]]  # a real change
             if not options:
                 continue
             new = rng.choice(options)
