@@ -107,6 +107,7 @@ def test_f_trace_pairing_the_shipped_traces_pass(path):
     result = CliRunner().invoke(cli, ["check", str(path), "--format", "json"])
     out = json.loads(result.output)
     assert result.exit_code == 0 and out["whole_trace"] == [], out["whole_trace"][:3]
+    assert out["events_paired_records"] == out["states"] > 0  # every record was paired: not vacuous
 
 
 # --------------------------------------------------------------------------- lies fail
@@ -235,3 +236,4 @@ def test_f_trace_pairing_records_without_events_are_judged_on_states_only(served
     assert pair_records(records) == ([], 0)
     code, out = _check(tmp_path, records)
     assert code == 0 and out["whole_trace"] == [] and out["diagnostics"] == []
+    assert out["events_paired_records"] == 0  # and the report says nothing was paired
