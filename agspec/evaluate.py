@@ -124,6 +124,7 @@ def run_episode(
                     events=step.events,
                     state=global_state(sim.state),
                     observations=session.observations if observations_in_trace else None,
+                    chosen={a: joint[a] for a in coerced},  # F-TRACE: pairs with action_coerced
                 )
             if on_tick is not None:
                 on_tick(sim.t, limit)

@@ -451,14 +451,19 @@ def semantic_validator() -> SemanticValidator | None:
     if not callable(func):
         return None
     try:  # scenarios also get the realizability checks, which need the geometry model (S-FEASIBILITY)
-        full = importlib.import_module("agspec.interp.realizability").validate_scenario_full
+        module = importlib.import_module("agspec.interp.realizability")
+        full, payload = module.validate_scenario_full, module.check_payload
     except (ImportError, AttributeError):
         return func
 
     def validate(ir, resolver):
         if isinstance(ir, dict) and ir.get("kind") == "scenario":
             return full(ir, resolver)
-        return func(ir, resolver)
+        issues = func(ir, resolver)
+        if isinstance(ir, dict) and ir.get("kind") == "instance" and isinstance(ir.get("scenario"), dict) \
+                and isinstance(ir.get("profile"), dict):  # AG459 on the embedded scenario and profile too
+            issues += [replace(i, pointer="/scenario" + i.pointer) for i in payload(ir["scenario"], ir["profile"])]
+        return issues
 
     return validate
 

@@ -393,7 +393,8 @@ def test_the_suite_covers_every_field_action_class_event_type_and_value_class():
 def test_value_classes_are_detected_and_missing_ones_reported():
     from agspec.conform.values import observe_run
 
-    states = [{"t": 0, "products": [], "proposals": {"c": {"expires_at": 1}}},
+    # R-SUPPORT-LIFECYCLE: a record open at its expires_at epoch (0) expires into epoch 1
+    states = [{"t": 0, "products": [], "proposals": {"c": {"expires_at": 0, "supporters": ["0,0"]}}},
               {"t": 1, "products": [{"xor": {"g": "a"}}], "proposals": {}}]
     events = [{"type": "admission_failed", "candidate": "c", "reason": "expired"},
               {"type": "blocked", "cause": "resource"}]
@@ -402,6 +403,9 @@ def test_value_classes_are_detected_and_missing_ones_reported():
     assert {"value:expiry_at_exact_tick", "value:xor_choice", "value:resource_at_capacity",
             "value:support_fraction_1/3", "event:blocked"} <= seen
     assert not any(s.startswith("value:support_fraction_33") for s in seen)  # 0.33 is no fraction class
+    # a record still eligible at epoch 1 that is gone at 1 did not expire on its clock
+    early = [{**states[0], "proposals": {"c": {"expires_at": 1, "supporters": ["0,0"]}}}, states[1]]
+    assert "value:expiry_at_exact_tick" not in observe_run(early, events, obs, [])
 
 
 def test_a_run_reports_the_rules_it_exercised():

@@ -24,11 +24,18 @@ def diag_record(d: Any) -> dict[str, Any]:
     return {"code": d.code, "message": d.message, "line": d.line, "pointer": d.pointer}
 
 
-def report_record(path: str, report: Any, diags: list[Any], whole: list[Any] = ()) -> dict[str, Any]:
+def paired_records(records: list[dict[str, Any]]) -> int:
+    """The header and tick records whose events F-TRACE-PAIRING pairs with the states (``events`` not null)."""
+    return sum(1 for r in records if r.get("type") in ("header", "tick") and r.get("events") is not None)
+
+
+def report_record(path: str, report: Any, diags: list[Any], whole: list[Any] = (), paired: int | None = None
+                  ) -> dict[str, Any]:
     """The JSON record of one checked trace (``agspec check --format json``).
 
     ``whole``: the whole-trace problems (F-TRACE-CHECK: record count against the horizon, footer
-    metrics recomputed from the records); the trace is ok only when both lists are empty.
+    metrics recomputed from the records, events against states); the trace is ok only when both
+    lists are empty. ``paired``: the records whose events were paired with the states (F-TRACE-PAIRING).
     """
     return {
         "file": path, "ok": report.ok and not whole, "ticks": report.ticks, "agents": report.agents, "states": report.states,
@@ -37,6 +44,7 @@ def report_record(path: str, report: Any, diags: list[Any], whole: list[Any] = (
         "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}
                        for v in report.violations],
         "whole_trace": [diag_record(d) for d in whole],
+        **({"events_paired_records": paired} if paired is not None else {}),
         "diagnostics": [diag_record(d) for d in diags],
     }
 
@@ -48,7 +56,8 @@ def check_file(_context: Any, path: str) -> dict[str, Any]:
         return {"file": path, "ok": False, "exit": EXIT_USAGE, "diagnostics": [diag_record(d) for d in diags]}
     if any(not d.code.startswith("AG6") for d in diags):  # unreadable records: invariants cannot run
         return {"file": path, "ok": False, "exit": EXIT_INVALID, "diagnostics": [diag_record(d) for d in diags]}
-    record = report_record(path, check_trace(records), diags, verify_whole(records, path, trace_diag))
+    record = report_record(path, check_trace(records), diags, verify_whole(records, path, trace_diag),
+                           paired_records(records))
     record["exit"] = EXIT_OK if record["ok"] else EXIT_INVALID
     return record
 
@@ -75,4 +84,4 @@ def exit_code(records: list[dict[str, Any]]) -> int:
     return EXIT_OK
 
 
-__all__ = ["check_file", "report_record", "diag_record", "expand", "exit_code"]
+__all__ = ["check_file", "report_record", "paired_records", "diag_record", "expand", "exit_code"]

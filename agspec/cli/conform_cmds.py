@@ -143,6 +143,9 @@ def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str
           campaign: ExecutorSpec) -> None:
     """Check traces (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard.
 
+    Also the trace as a whole (F-TRACE-CHECK): its record count, its footer metrics, and that every
+    state change has its event and every event its change (F-TRACE-PAIRING, AG609).
+
     One file: its invariant table. A directory (every *.jsonl below it) or several files: a
     campaign (spec chapter 14), one row per trace, in file order whatever the executor.
     """

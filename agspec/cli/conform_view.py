@@ -285,7 +285,7 @@ def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table
 
 
 def check_trace_command(path: str, fmt: str) -> int:
-    from agspec.campaign.check import diag_record, report_record
+    from agspec.campaign.check import diag_record, paired_records, report_record
     from agspec.cli.check_view import timing
     from agspec.conform.invariants import INVARIANT_IDS, check_trace
     from agspec.campaign.check import trace_diag, verify_whole
@@ -313,7 +313,7 @@ def check_trace_command(path: str, fmt: str) -> int:
     whole = verify_whole(records, path, trace_diag)
     ok = report.ok and not whole
     if fmt == "json":
-        emit_json({**report_record(path, report, diags, whole), "timing": speed})
+        emit_json({**report_record(path, report, diags, whole, paired_records(records)), "timing": speed})
         return EXIT_OK if ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
                         f"{report.total_checks} checks evaluated, {speed['ticks_per_s'] or 0:.0f} ticks/s")
@@ -338,6 +338,7 @@ def check_trace_command(path: str, fmt: str) -> int:
         stdout.print(d.render(), markup=False)
     stdout.print("[green]all invariants hold[/]" if report.ok else f"[bold red]{len(report.violations)} violation(s)[/]")
     stdout.print(f"[bold red]the trace as a whole is wrong ({len(whole)} problem(s))[/]" if whole
-                 else "[green]record count and footer metrics agree with the records[/]")
+                 else "[green]record count and footer metrics agree with the records; events agree with states[/]"
+                 + f" ({paired_records(records)} of {report.states} records carry events)")
     return EXIT_OK if ok else EXIT_INVALID
 

@@ -112,7 +112,11 @@ class Server:
         seed = msg.get("execution_seed")
         if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
             raise RequestError("bad_request", "`execution_seed` must be an integer or null")
-        self.sim.reset(seed)
+        self.was_reset = False
+        try:
+            self.sim.reset(seed)
+        except SlotOverflow as exc:  # RES-SLOT-OVERFLOW-STATE: s_0 cannot be acted on
+            raise RequestError("slot_overflow", f"O-ACTION-ENCODING: {exc}")
         self.was_reset = True
         return self._snapshot(self.sim.reset_events)
 
@@ -133,7 +137,8 @@ class Server:
                 raise RequestError("bad_actions", f"the action of robot {robot} must be an integer, found {a!r}")
         try:
             result = self.sim.step(actions)
-        except SlotOverflow as exc:
+        except SlotOverflow as exc:  # RES-SLOT-OVERFLOW-STATE: the state reached cannot be acted on
+            self.was_reset = False
             raise RequestError("slot_overflow", f"O-ACTION-ENCODING: {exc}")
         reply = self._snapshot(result.events)
         reply["applied"] = dict(result.applied)

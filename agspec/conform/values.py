@@ -53,7 +53,8 @@ VALUE_CLASSES: dict[str, str] = {
     "support_fraction_3/4": "an operation option shows support 3/4",
     "xor_choice": "a product resolves an XOR group (R-XOR-CLOSURE)",
     "resource_at_capacity": "an activity is blocked because a finite resource is at capacity (R-BLOCKING)",
-    "expiry_at_exact_tick": "a supported record expires in the transition into its expires_at epoch (R-EXPIRY)",
+    "expiry_at_exact_tick": "a supported record open at its expires_at epoch expires in the transition into "
+                            "expires_at + 1 (R-SUPPORT-LIFECYCLE, R-EXPIRY)",
 }
 
 STATE_FIELDS = ("t", "released", "delivered", "wip", "lost_releases", "robots/*/holding", "robots/*/incoming",
@@ -109,12 +110,14 @@ def observe_run(states: Sequence[Mapping[str, Any]], events: Iterable[Mapping[st
     for s in states:
         if any(p.get("xor") for p in s.get("products") or []):
             seen.add("value:xor_choice")
-    # expiry at the exact tick: a supported record of s_t whose expires_at is t + 1 is gone in s_{t+1}
+    # expiry on the clock (R-SUPPORT-LIFECYCLE): a supported record of s_t with expires_at = t (its last
+    # eligible epoch) is gone in s_{t+1}, and an `admission_failed` with reason `expired` names it
     expired = {(ev.get("candidate")) for ev in events if ev.get("type") == "admission_failed"
                and ev.get("reason") == "expired"}
     for before, after in zip(states, states[1:]):
         for cid, rec in (before.get("proposals") or {}).items():
-            if cid in expired and rec.get("expires_at") == after.get("t") and cid not in (after.get("proposals") or {}):
+            if (cid in expired and rec.get("supporters") and rec.get("expires_at") == before.get("t")
+                    and cid not in (after.get("proposals") or {})):
                 seen.add("value:expiry_at_exact_tick")
     per_robot = [o for obs in observations for o in obs.values()]
     for f in OBSERVATION_FIELDS:

@@ -52,8 +52,11 @@ class TraceWriter:
         )
 
     def tick(self, *, t: int, actions: Mapping[str, int], events: list, state: Mapping[str, Any],
-             observations: Mapping[str, Any] | None = None) -> None:
+             observations: Mapping[str, Any] | None = None, chosen: Mapping[str, int] | None = None) -> None:
+        """``chosen``: the submitted actions that R-ACTION-VALIDATION replaced (F-TRACE; written when not empty)."""
         record: dict[str, Any] = {"type": "tick", "t": t, "actions": dict(actions), "events": events, "state": state}
+        if chosen:
+            record["chosen"] = dict(chosen)
         if observations is not None:
             record["observations"] = observations
         self._write(record)

@@ -172,6 +172,8 @@ def start_handoffs(state: State, model: Model, sends: dict[Cell, int], receives:
         if not (sender.free(t) and receiver.free(t) and sender.holding is not None and receiver.holding is None):
             continue
         item = sender.holding
+        if state.products[item[0]].mass > float(model.profile.get("payload", 10.0)):
+            continue  # condition 4, RES-PAYLOAD-CHECKS: never binds on a valid instance (AG459)
         target = geometry.handoff_point(sender_cell, recv_cell, spacing)
         plan = model.plans.plan(  # G-MOTION
             [(sender_cell, sender.pose, target), (recv_cell, receiver.pose, target)], model.handoff_duration, target

@@ -34,6 +34,8 @@ TRACE_CODES = {
     "AG606": "the trace is empty",
     "AG607": "the header fingerprint is not the fingerprint of its instance",
     "AG608": "the trace stops before its horizon without terminating, or runs past it (agspec check)",
+    "AG609": "an event and the states disagree: a change without its event, or an event without its change "
+             "(agspec check, F-TRACE-PAIRING)",
 }
 
 

@@ -9,7 +9,10 @@ Tick invariants (chapter 8) judge each transition; this module judges the trace 
   states and events (:func:`recompute`) and compared (floats to 1e-9 relative); a footer that
   disagrees is AG605, and names the known divergence of the original release it is, if any
   (F-CONFORM-KNOWN, :func:`known_metric`).  Metrics that need the reference's internal samples
-  (capacity, geometry, occupancy) are not recomputed.
+  (capacity, geometry, occupancy) are not recomputed.  Where both the states and the events
+  determine a metric (``handoffs``, ``admissions``), the footer must agree with both;
+* **events and states** — every state change has its event in the same record and every event its
+  change (F-TRACE-PAIRING, :mod:`agspec.trace.pairing`); a disagreement is AG609.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from typing import Any, Callable, Mapping, Sequence
 from agspec.diagnostics import Diagnostic
 from agspec.formats.divergences import by_scope
 from agspec.interp.metrics import _pct as percentile
+from agspec.trace.pairing import pair_records
 
 Json = dict[str, Any]
 
@@ -80,6 +84,19 @@ def recompute(records: Sequence[Json]) -> dict[str, Any]:
     }
 
 
+def recompute_from_states(records: Sequence[Json]) -> dict[str, Any]:
+    """The footer metrics that the states alone determine too, recomputed from the states only:
+    ``handoffs`` (every change of an item's holder is a handoff completion, INV-CONSERVATION) and
+    ``admissions`` (every operation admitted is in progress or completed in the last state)."""
+    states = [r["state"] for r in records if r.get("type") in ("header", "tick")]
+    moves = sum(1 for a, b in zip(states, states[1:]) for item, robot in b["items"].items()
+                if item in a["items"] and a["items"][item] != robot)
+    final = states[-1]
+    admitted = sum(len(p["completed"]) + len(p["in_progress"]) for p in final.get("products") or [])
+    return {"handoffs": moves, "admissions": admitted,
+            "handoffs_per_delivered": moves / max(1, int(final["delivered"]))}
+
+
 def _same(a: Any, b: Any) -> bool:
     if isinstance(a, bool) or isinstance(b, bool) or a is None or b is None:
         return a is b or a == b and type(a) is type(b)
@@ -119,10 +136,16 @@ def known_metric(header: Mapping[str, Any], metric: str, recomputed: Any) -> str
 
 def verify(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
            lines: Sequence[int] | None = None) -> list[Diagnostic]:
-    """AG608 (the trace stops before its horizon) and AG605 (a footer metric the records contradict).
+    """AG608 (the trace stops before its horizon), AG605 (a footer metric the records contradict) and
+    AG609 (events and states that disagree, F-TRACE-PAIRING).
 
     ``lines``: the line number of each record (default: one record per line).
     """
+    return _count_and_footer(records, file, diag, lines) + pairing(records, file, diag, lines)
+
+
+def _count_and_footer(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
+                      lines: Sequence[int] | None) -> list[Diagnostic]:
     out: list[Diagnostic] = []
     lines = list(lines) if lines is not None else list(range(1, len(records) + 1))
     if not records or records[0].get("type") != "header":
@@ -151,9 +174,26 @@ def verify(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
                                          f"give {want!r}" + (f" \u2014 the known divergence {named} of the original "
                                                              "release (spec/10-divergences.md)" if named else ""),
                                 file, line, pointer=f"/metrics/{key}"))
+        for key, want in recompute_from_states(records).items():
+            if key in footer["metrics"] and not _same(footer["metrics"][key], want):
+                out.append(diag("AG605", f"the footer declares {key} = {footer['metrics'][key]!r}, the states "
+                                         f"give {want!r}", file, line, pointer=f"/metrics/{key}"))
     except (KeyError, TypeError, ValueError, AttributeError, IndexError):
         pass  # a record without the fields: the schema diagnostics already say so
     return out
 
 
-__all__ = ["recompute", "verify", "horizon_of", "terminated"]
+def pairing(records: Sequence[Json], file: str, diag: Callable[..., Diagnostic],
+            lines: Sequence[int] | None = None, limit: int = 100) -> list[Diagnostic]:
+    """AG609: the events and states that disagree (F-TRACE-PAIRING), at most ``limit`` of them."""
+    lines = list(lines) if lines is not None else list(range(1, len(records) + 1))
+    problems, _ = pair_records(records)
+    out = [diag("AG609", p.message, file, lines[p.record] if p.record < len(lines) else None, pointer=p.pointer)
+           for p in problems[:limit]]
+    if len(problems) > limit:
+        out.append(diag("AG609", f"… and {len(problems) - limit} more disagreements of events and states", file,
+                        None))
+    return out
+
+
+__all__ = ["recompute", "recompute_from_states", "verify", "pairing", "horizon_of", "terminated"]

@@ -70,6 +70,10 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
                               "a trace needs its global states (F-TRACE)")
         robots: list[str] = []
         own = bool(caps.get("observations"))
+
+        def events_of(reply: Mapping[str, Any]) -> list | None:
+            """F-TRACE: null when the implementation reports no events (so nothing pairs them with states)."""
+            return (reply.get("events") or []) if caps.get("events") else None
         previous: list[Any] = [None]  # the implementation's own I_t (the reply before the step)
 
         def write(step: Step) -> bool:
@@ -79,12 +83,12 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
                                      key=lambda r: tuple(map(int, r.split(",")))))
                 writer.header(instance=instance, fingerprint=fingerprint(instance), execution_seed=seed,
                               controller=ctl_record, initial_state=reply.get("state"),
-                              initial_events=reply.get("events") or [],
+                              initial_events=events_of(reply),
                               implementation=info.get("implementation") or {"name": impl_spec, "version": "?"},
                               horizon=limit)
             else:
                 seen = previous[0] if own else step.observations
-                writer.tick(t=t, actions=applied_actions(reply, step.joint, robots), events=reply.get("events") or [],
+                writer.tick(t=t, actions=applied_actions(reply, step.joint, robots), events=events_of(reply),
                             state=reply.get("state"), observations=seen if observations else None)
             previous[0] = reply.get("observations")
             return False
