@@ -177,6 +177,17 @@ def dsl_form(ir: Json) -> tuple[str, Json]:
     return text, built.ir
 
 
+def bundle_of(recipes: list[Json], profile: Json, scenario: Json) -> Bundle:
+    """A bundle of given documents (in the DSL's canonical form), without its instance."""
+    texts: dict[str, str] = {}
+    canonical: dict[str, Json] = {}
+    for r in recipes:
+        texts[f"recipe:{r['id']}"], canonical[r["id"]] = dsl_form(r)
+    texts["profile"], profile = dsl_form(profile)
+    texts["scenario"], scenario = dsl_form(scenario)
+    return Bundle(canonical, profile, scenario, texts)
+
+
 @st.composite
 def raw_bundles(draw: Any) -> Bundle:
     """A bundle as drawn, before the validator's filter (its instance is not made yet)."""
@@ -191,13 +202,7 @@ def raw_bundles(draw: Any) -> Bundle:
     profile = draw(profiles())
     resources = sorted({name for r in drawn for name in r.get("resources", {})})
     scenario = draw(scenarios(grid, list(by_id), resources, sorted(profile["variants"])))
-    texts: dict[str, str] = {}
-    canonical: dict[str, Json] = {}
-    for rid, r in by_id.items():
-        texts[f"recipe:{rid}"], canonical[rid] = dsl_form(r)
-    texts["profile"], profile = dsl_form(profile)
-    texts["scenario"], scenario = dsl_form(scenario)
-    return Bundle(canonical, profile, scenario, texts)
+    return bundle_of(drawn, profile, scenario)
 
 
 def bundle_errors(bundle: Bundle) -> list[str]:
