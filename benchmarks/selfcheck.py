@@ -92,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         "scenarios": total.scenarios, "runs": total.runs, "ticks_checked": total.ticks,
         "by_topology": dict(sorted(by_topology.items())),
         "findings": len(total.findings), "findings_by_kind": total.kinds(),
+        "events_exercised": dict(sorted(total.events.items())),
         "examples": {k: v[2][:300] for k, v in sorted(smallest.items())},
     }
     if args.out is not None:
@@ -108,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"self-check: {drawn} scenarios drawn, {accepted} valid ({summary['acceptance_rate']}), "
               f"{total.runs} runs, {total.ticks} ticks checked in {seconds:.0f} s")
         print(f"  by topology: {summary['by_topology']}")
+        print(f"  behaviour exercised: {summary['events_exercised']}")
         print(f"  findings: {len(total.findings)} {summary['findings_by_kind']}")
         for kind, text in summary["examples"].items():
             print(f"  e.g. {kind}: {text}")

@@ -27,6 +27,7 @@ import random
 import subprocess
 import sys
 import traceback
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from agspec.controllers import CONTROLLERS
 from agspec.dsl.fmt import format_ir
 from agspec.evaluate import run_episode
 from agspec.formats.actions import N_ACTIONS
-from agspec.formats.trace import TraceWriter
+from agspec.formats.trace import TraceWriter, read_records
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint
@@ -61,12 +62,15 @@ class Tally:
     runs: int = 0
     ticks: int = 0
     findings: list[Finding] = field(default_factory=list)
+    # what the runs exercised: event types, with blocked causes, lost-release reasons and coalition sizes
+    events: Counter = field(default_factory=Counter)
 
     def add(self, other: "Tally") -> None:
         self.scenarios += other.scenarios
         self.runs += other.runs
         self.ticks += other.ticks
         self.findings += other.findings
+        self.events.update(other.events)
 
     def kinds(self) -> dict[str, int]:
         out: dict[str, int] = {}
@@ -163,6 +167,23 @@ def trace_findings(path: Path, run: str) -> tuple[int, list[Finding]]:
     return int(record.get("ticks") or 0), out
 
 
+def exercised(path: Path) -> Counter:
+    """The behaviour a trace shows: its event types, refined by blocked cause, lost-release reason and
+    admitted coalition size (``admitted/size=2``)."""
+    out: Counter = Counter()
+    for rec in read_records(path):
+        for ev in rec.get("events") or []:
+            kind = ev.get("type")
+            out[kind] += 1
+            if kind == "blocked":
+                out[f"blocked/{ev.get('cause')}"] += 1
+            elif kind == "release_lost":
+                out[f"release_lost/{ev.get('reason')}"] += 1
+            elif kind == "admitted":
+                out[f"admitted/size={str(ev.get('candidate')).rsplit(':', 1)[-1].count(';') + 1}"] += 1
+    return out
+
+
 def cross_process_findings(instance_path: Path, controller: str, reference: Path, horizon: int,
                            workdir: Path) -> list[Finding]:
     """D-DETERMINISM: ``agspec run`` in a fresh process writes the same trace bytes."""
@@ -204,6 +225,7 @@ def check_bundle(bundle: Bundle, workdir: Path, *, horizon: int = 40, seed: int 
         tally.runs += 1
         tally.ticks += ticks
         tally.findings += found
+        tally.events.update(exercised(path))
         if name == cross_process:
             tally.findings += cross_process_findings(instance_path, name, path, horizon, workdir)
     return tally

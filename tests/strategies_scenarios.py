@@ -91,7 +91,7 @@ _SETTINGS = {  # profile settings and the values drawn for them (abstract-v1's v
     "retreat_fraction": [0.25, 0.0, 1.0],
     "speed": [1.0, 0.5, 2.0],
     "joint_speed": [1.0, 0.5, 2.0],
-    "payload": [10.0, 2.0],
+    "payload": [10.0, 10.0, 2.0],
 }
 _SWITCHES = ("motion_planning", "trajectory_conflicts")  # S-RULE-VARIANTS, profile side
 
@@ -154,7 +154,7 @@ def scenarios(draw: Any, grid: Json, recipe_ids: list[str], resources: list[str]
                     "extra_access_probability": draw(st.sampled_from([0.0, 0.3, 1.0]))},
         "coordination": {"support_timeout": draw(st.integers(0, 5)), "switch_lock": draw(st.integers(0, 3)),
                          "support_visible": draw(st.booleans()), "bilateral_handoff": True},
-        "products": {"mass": [lo, lo + draw(st.sampled_from([0.0, 0.5, 1.5, 12.0]))],
+        "products": {"mass": [lo, lo + draw(st.sampled_from([0.0, 0.5, 0.5, 1.5, 1.5, 12.0]))],
                      "due_slack": draw(st.sampled_from([0.5, 1.0, 2.2, 5.0])),
                      "due_slack_jitter": draw(st.sampled_from([0.0, 0.5, 2.0]))},
         # S-RESOURCES: override some recipe resources (0 = none available, 1 = exclusive, 2..3 = finite)
@@ -193,8 +193,10 @@ def raw_bundles(draw: Any) -> Bundle:
     """A bundle as drawn, before the validator's filter (its instance is not made yet)."""
     grid = draw(grids())
     k = min(4, grid_k_topo(grid["rows"], grid["cols"], grid["topology"], grid["radius"]))
+    # on a `line` grid of several rows, inputs drawn from different rows never meet (AG454): mostly one raw token
+    max_raw = 1 if grid["topology"] == "line" and grid["rows"] > 1 and draw(st.integers(0, 3)) else min(3, k)
     n = draw(st.integers(1, 3))
-    drawn = [draw(recipes(max_raw=min(3, k), max_ops=4, k_max=k)) for _ in range(n)]
+    drawn = [draw(recipes(max_raw=max_raw, max_ops=4, k_max=k)) for _ in range(n)]
     by_id: dict[str, Json] = {}
     for i, r in enumerate(drawn):
         r["id"] = f"r{i}-{r['id']}" if r["id"] else f"r{i}"

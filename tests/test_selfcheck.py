@@ -19,7 +19,7 @@ from agspec.resources import catalogue_dir
 from reference_selfcheck import check_bundle
 from strategies_scenarios import bundle_errors, bundle_of, bundles, raw_bundles, realize
 
-BOUNDED = settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+BOUNDED = settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                          HealthCheck.filter_too_much])
 LONG = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                         HealthCheck.filter_too_much])
@@ -33,7 +33,7 @@ def _explain(tally) -> str:
 @given(bundles())
 def test_reference_obeys_its_spec_on_generated_scenarios(tmp_path_factory, bundle):
     # D-TOPOLOGY, O-MASK, O-OBSERVATION, R-HANDOFF, R-ACTION-VALIDATION, F-DSL, F-FINGERPRINT
-    tally = check_bundle(bundle, tmp_path_factory.mktemp("selfcheck"), horizon=30)
+    tally = check_bundle(bundle, tmp_path_factory.mktemp("selfcheck"), horizon=25)
     assert tally.findings == [], f"{bundle.describe()}\n{_explain(tally)}\n" + "\n".join(bundle.texts.values())
     assert tally.runs == 5 and tally.ticks > 0  # four controllers and random actions, not vacuous
 
@@ -56,10 +56,10 @@ def test_a_run_is_byte_identical_in_a_fresh_process(tmp_path_factory, bundle):  
 
 def test_the_validator_filter_keeps_most_draws():
     """The strategy covers valid scenarios, not mostly rejected ones: at least half of the raw draws
-    pass `agspec validate` (about 0.6-0.8 in benchmarks/selfcheck.py runs)."""
+    pass `agspec validate` (benchmarks/selfcheck.py prints the rate of its runs)."""
     seen = {"drawn": 0, "valid": 0, "topologies": set()}
 
-    @settings(max_examples=30, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=40, deadline=None, database=None, derandomize=True, suppress_health_check=list(HealthCheck))
     @given(raw_bundles())
     def draw(bundle):
         seen["drawn"] += 1
@@ -70,7 +70,7 @@ def test_the_validator_filter_keeps_most_draws():
 
     draw()
     assert seen["valid"] >= seen["drawn"] / 2, seen
-    assert len(seen["topologies"]) >= 4, seen  # several topology x radius pairs among 30 draws
+    assert len(seen["topologies"]) >= 4, seen  # several topology x radius pairs among 40 draws
 
 
 def _ir(path: str) -> dict:
@@ -79,7 +79,7 @@ def _ir(path: str) -> dict:
 
 
 def _line_bundle():
-    """The issue's reproduction: flow_serial_3 and solo_inspection on a 3 x 6 line grid."""
+    """flow_serial_3 and solo_inspection on a 3 x 6 line grid (rows are separate lines, RES-TOPOLOGY-LINE)."""
     recipes = [_ir("recipes/flow_serial_3.ag"), _ir("recipes/solo_inspection.ag")]
     scenario = _ir("scenarios/flow-easy.ag")
     scenario.update(id="line-test", recipes=["flow_serial_3", "solo_inspection"],
@@ -92,9 +92,10 @@ def _line_bundle():
 
 
 def test_line_grid_reproduction_checks_clean(tmp_path):  # D-TOPOLOGY, RES-TOPOLOGY-LINE, R-HANDOFF
-    tally = check_bundle(_line_bundle(), tmp_path, horizon=100, controllers=("random", "greedy"))
+    # as `agspec run … --controller random --horizon 100 --trace t.jsonl` then `agspec check t.jsonl`
+    tally = check_bundle(_line_bundle(), tmp_path, horizon=100, controllers=("random",), random_runs=0)
     assert tally.findings == [], _explain(tally)
-    assert tally.ticks == 300
+    assert tally.ticks == 100
 
 
 def test_the_selfcheck_catches_a_reference_that_ignores_the_topology(tmp_path, monkeypatch):
@@ -108,5 +109,5 @@ def test_the_selfcheck_catches_a_reference_that_ignores_the_topology(tmp_path, m
 
     monkeypatch.setattr(Model, "handoff_slots", property(moore_slots))
     monkeypatch.setattr(Model, "observation_slots", property(moore_slots))
-    tally = check_bundle(bundle, tmp_path, horizon=100, controllers=("random",), random_runs=1)
+    tally = check_bundle(bundle, tmp_path, horizon=60, controllers=(), random_runs=1)
     assert {"INV-LOCALITY", "INV-MASKING", "INV-OBSERVATION"} <= set(tally.kinds()), tally.kinds()
