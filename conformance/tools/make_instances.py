@@ -344,6 +344,17 @@ INSTANCES: dict[str, dict[str, Any]] = {
     "solo-2x2-official": dict(grid="2 x 2", recipe="solo", profile="abstract-v1", release=1, wip=2,
                               evaluation="continuing horizon 30",
                               patches=[source_rows({"A": 1}), shelf_access({0: [0, 1], 1: [0, 1]})]),
+    # D-TOPOLOGY: one holder (0,0 picks product 0's A from its own row) and helpers under each
+    # topology and radius; the locality relations decide handoffs, masks, observations and coalitions.
+    "topo-vn-2x2-flat": dict(grid="2 x 2 von_neumann radius 1", recipe="insert4", profile="flat-v1",
+                             patches=[source_rows({"A": 0})]),
+    "topo-vn-2x3-r2-flat": dict(grid="2 x 3 von_neumann radius 2", recipe="insert4", profile="flat-v1",
+                                patches=[source_rows({"A": 0})]),
+    "topo-line-2x3-flat": dict(grid="2 x 3 line radius 1", recipe="insert4", profile="flat-v1",
+                               patches=[source_rows({"A": 0})]),
+    "topo-line-1x4-r2-flat": dict(grid="1 x 4 line radius 2", recipe="insert4", profile="flat-v1"),
+    "topo-moore-2x3-r2-flat": dict(grid="2 x 3 moore radius 2", recipe="insert4", profile="flat-v1",
+                                   patches=[source_rows({"A": 0})]),
 }
 
 
