@@ -244,6 +244,7 @@ def scenario_text(
     shelves: str = "capacity 6 replenish 100 extra_access 0",
     coordination: str = "support_timeout 3 switch_lock 1 support_visible on bilateral_handoff on",
     resources: str = "",
+    products: str = "mass 0.5..2.0 due_slack 2.2 jitter 0.5",
 ) -> str:
     return f"""
 scenario {name} {{
@@ -257,7 +258,7 @@ scenario {name} {{
     evaluation {evaluation}
     shelves {shelves}
     coordination {coordination}
-    products mass 0.5..2.0 due_slack 2.2 jitter 0.5
+    products {products}
     {resources}
 }}
 """
@@ -355,6 +356,9 @@ INSTANCES: dict[str, dict[str, Any]] = {
     "topo-line-1x4-r2-flat": dict(grid="1 x 4 line radius 2", recipe="insert4", profile="flat-v1"),
     "topo-moore-2x3-r2-flat": dict(grid="2 x 3 moore radius 2", recipe="insert4", profile="flat-v1",
                                    patches=[source_rows({"A": 0})]),
+    # RES-SLACK-BELOW-ONE: due_slack + jitter < 1, so every slack lies in [0.5, 1] (uniform(1, 0.5)).
+    "solo-1x2-slack-flat": dict(grid="1 x 2", recipe="solo", profile="flat-v1", release=4, wip=2,
+                                evaluation="continuing horizon 12", products="mass 0.5..2.0 due_slack 0.5 jitter 0"),
 }
 
 
