@@ -6,7 +6,7 @@ carries its action mask) to an action; it never sees the global state (C-INFORMA
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Protocol
 
@@ -57,10 +57,15 @@ class Routes:
     handoff: nx.Graph
     manip: nx.Graph
     obs: nx.Graph
+    # memo (not state): target -> hop counts to it, one BFS per target (the graph never changes)
+    _to: dict[Cell, dict[Cell, int]] = field(default_factory=dict, repr=False)
 
     def distance(self, a: Cell, b: Cell) -> int | None:
         """Route distance: hop count from a to b in G_handoff (None: b is unreachable from a)."""
-        return _distances_to(self, b).get(a)
+        to = self._to.get(b)
+        if to is None:
+            to = self._to[b] = nx.single_source_shortest_path_length(self.handoff, b) if b in self.handoff else {}
+        return to.get(a)
 
     def observed_around(self, cell: Cell) -> tuple[Cell, ...]:
         """The G_obs neighbours of ``cell`` (row-major)."""
@@ -74,6 +79,9 @@ class Routes:
     def item_target(self, product: int, token: str, final: bool, at: Cell) -> Cell:
         """C-STAGING: where a held item at ``at`` should go: the output column for a terminal item,
         else a cell of its product's staging set (anchored in the item's G_handoff component)."""
+        return _item_target(self, product, token, final, at)
+
+    def _target(self, product: int, token: str, final: bool, at: Cell) -> Cell:
         if final:
             return (at[0], self.cols - 1)
         anchor = (product % max(1, self.rows - 1), max(0, self.cols - 3))
@@ -91,9 +99,9 @@ def routes(grid: GridSpec) -> Routes:
                   topology.observation_graph(rows, cols, topo, radius))
 
 
-@lru_cache(maxsize=4096)  # pure: BFS once per (grid, target)
-def _distances_to(r: Routes, target: Cell) -> dict[Cell, int]:
-    return nx.single_source_shortest_path_length(r.handoff, target) if target in r.handoff else {}
+@lru_cache(maxsize=65536)  # pure: items, tokens and cells repeat every tick
+def _item_target(r: Routes, product: int, token: str, final: bool, at: Cell) -> Cell:
+    return r._target(product, token, final, at)
 
 
 @lru_cache(maxsize=4096)  # pure function of the grid: one computation per (anchor, grid)
