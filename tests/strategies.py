@@ -55,8 +55,9 @@ def _unique_names(draw: Any, n: int, avoid: set[str] = frozenset()) -> list[str]
 
 
 @st.composite
-def recipes(draw: Any, max_raw: int = 3, max_ops: int = 6, xor: bool = True) -> dict[str, Any]:
-    """A valid recipe IR in canonical order (see the module docstring)."""
+def recipes(draw: Any, max_raw: int = 3, max_ops: int = 6, xor: bool = True, k_max: int = K_TOPO) -> dict[str, Any]:
+    """A valid recipe IR in canonical order (see the module docstring); ``k_max`` caps every
+    operation's arity (RC-ARITY: a scenario's grid may have a smaller k_topo than 4, D-KTOPO)."""
     n_raw = draw(st.integers(1, max_raw))
     tokens = draw(_unique_names(n_raw + max_ops, avoid={"FINAL"}))
     raw = tokens[:n_raw]
@@ -80,7 +81,8 @@ def recipes(draw: Any, max_raw: int = 3, max_ops: int = 6, xor: bool = True) -> 
         if earlier:
             after |= set(draw(st.lists(st.sampled_from(earlier), max_size=2)))
         n_alt = draw(st.sampled_from([1, 1, 1, 2, 3])) if xor and len(groups) < 2 else 1
-        alts = [_operation(draw, next(op_names), inputs, output, after, sorted(resources)) for _ in range(n_alt)]
+        alts = [_operation(draw, next(op_names), inputs, output, after, sorted(resources), k_max)
+                for _ in range(n_alt)]
         ops += alts
         if n_alt > 1:
             gid = next(op_names)
@@ -105,9 +107,9 @@ def recipes(draw: Any, max_raw: int = 3, max_ops: int = 6, xor: bool = True) -> 
 
 
 def _operation(draw: Any, op_id: str, inputs: list[str], output: str, after: set[str],
-               resources: list[str]) -> dict[str, Any]:
-    kmin = draw(st.integers(max(1, len(inputs)), K_TOPO))
-    kmax = draw(st.integers(kmin, K_TOPO))
+               resources: list[str], k_max: int = K_TOPO) -> dict[str, Any]:
+    kmin = draw(st.integers(max(1, len(inputs)), max(len(inputs), k_max)))
+    kmax = draw(st.integers(kmin, max(kmin, k_max)))
     role_names = draw(_unique_names(kmax))
     bind = draw(st.booleans())
     roles = []

@@ -283,6 +283,23 @@ def test_workloads_pass_without_the_mutant():
     assert summary.exit_code == 0
 
 
+def test_topology_cases_fail_a_simulator_that_ignores_the_topology():
+    """The suite's topology cases judge the relation, not the grid: every case off the official Moore
+    radius 1 fails the topology-ignored mutant (D-TOPOLOGY, O-MASK, O-OBSERVATION, R-CANDIDATES),
+    and the Moore radius-1 case, where that mutant behaves like the reference, passes."""
+    from agspec.conform.cases import load_suite
+
+    cases = [c for c in load_suite() if "topology" in c.tags]
+    grids = {c.id: c.instance["scenario"]["grid"] for c in cases}
+    assert {(g["topology"], g["radius"]) for g in grids.values()} == {(t, r) for t in ("moore", "von_neumann", "line")
+                                                                      for r in (1, 2)}
+    summary = runner.run([from_case(c) for c in cases], sim_spec("topology-ignored"), timeout=PATIENT)
+    outcomes = {r.item.id: outcome for r, outcome in summary.results}
+    for case in cases:
+        official = (grids[case.id]["topology"], grids[case.id]["radius"]) == ("moore", 1)
+        assert outcomes[case.id] == ("pass" if official else "fail"), (case.title, outcomes[case.id])
+
+
 def test_mutant_instances_are_current():
     import make_instances  # tests/mutants/make_instances.py
 

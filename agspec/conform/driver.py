@@ -59,7 +59,8 @@ class Policy(Protocol):
     information: str  # "local" or "global" (reads the reference simulator)
     observes: bool  # acts on observations (False: a script of integers)
 
-    def reset(self) -> None: ...
+    def reset(self, grid: Mapping[str, Any] | None = None) -> None:
+        """A new episode on the instance's scenario ``grid`` (public information)."""
 
     def act(self, t: int, observations: Mapping[str, Any] | None, robots: Sequence[str],
             simulator: Simulator | None = None) -> dict[str, int]: ...
@@ -294,7 +295,7 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
         run.stopped = True
     if run.divergence is not None or run.stopped:
         return run
-    policy.reset()
+    policy.reset((instance.get("scenario") or {}).get("grid"))
     robots = robot_order((exp.get("state") or {}).get("robots") or (simulator.agents() if simulator else {}))
     for t in range(ticks):
         if stop_at_done and exp.get("done"):

@@ -31,7 +31,10 @@ class ControllerPolicy:
         self.information = self._ctl.information
         self.observes = True
 
-    def reset(self) -> None:
+    def reset(self, grid: Mapping[str, Any] | None = None) -> None:
+        """A new episode on ``grid`` (the scenario's grid, public: C-INFORMATION; the structured
+        controllers route on its G_handoff, C-STAGING)."""
+        self._ctl = make_controller(self.controller, self.seed, grid=grid)
         self._ctl.reset(self.reset_seed)
 
     def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
@@ -56,7 +59,7 @@ class ScriptPolicy:
         # integers need no option lists: a script of integers is driven without observations
         self.observes = any(not isinstance(a, int) or isinstance(a, bool) for j in self.script for a in j.values())
 
-    def reset(self) -> None:
+    def reset(self, grid: Mapping[str, Any] | None = None) -> None:
         pass
 
     def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
@@ -82,7 +85,7 @@ class GenePolicy:
     def __init__(self, genes: Sequence[Sequence[int]]):
         self.genes = [list(g) for g in genes]
 
-    def reset(self) -> None:
+    def reset(self, grid: Mapping[str, Any] | None = None) -> None:
         pass
 
     def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:

@@ -143,7 +143,7 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "agspec: an agspec conformance item (case or catalogue episode)")
     config.addinivalue_line("markers", "agspec_case: a case of the agspec conformance suite")
     config.addinivalue_line("markers", "agspec_episode: a lockstep episode on the official catalogue")
-    for ident in spec_ids(("R-", "INV-")):
+    for ident in spec_ids(("R-", "O-", "D-", "INV-")):
         config.addinivalue_line("markers", f"{ident}: agspec items exercising {ident}")
     state = _State(config)
     setattr(config, _STATE_KEY, state)

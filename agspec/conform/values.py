@@ -144,7 +144,7 @@ def run_case(item: Any) -> set[str]:
     sim.reset(item.execution_seed)
     ctl = None
     if item.controller is not None:
-        ctl = make_controller(item.controller["name"], item.controller.get("seed"))
+        ctl = make_controller(item.controller["name"], item.controller.get("seed"), grid=item.instance["scenario"]["grid"])
         ctl.reset(item.controller.get("seed"))
     states, events = [global_state(sim.state)], list(sim.reset_events)
     observations, masks = [sim.observe()], [sim.masks()]

@@ -6,13 +6,18 @@ carries its action mask) to an action; it never sees the global state (C-INFORMA
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any, Mapping, Protocol
 
+import networkx as nx
+
 from agspec.interp.model import DIRECTIONS
 from agspec.interp.observe import DELIVER, HANDOFF0, IDLE, OP0, PICK0, RECEIVE0
+from agspec.ir import topology
 
 Obs = Mapping[str, Any]
+Cell = tuple[int, int]
 
 
 class Controller(Protocol):
@@ -30,25 +35,83 @@ def parse_cell(robot: str) -> tuple[int, int]:
     return int(i), int(j)
 
 
-def chebyshev(a: tuple[int, int], b: tuple[int, int]) -> int:
-    """Route distance on the Moore graph = BFS hop count = Chebyshev distance (C-STAGING)."""
-    return max(abs(a[0] - b[0]), abs(a[1] - b[1]))
+GridSpec = tuple[int, int, str, int]  # (rows, cols, topology, radius): agspec.ir.topology.grid_spec
 
 
-@lru_cache(maxsize=4096)  # pure function of the grid: one computation per (anchor, grid size)
-def staging_set(anchor: tuple[int, int], rows: int, cols: int) -> tuple[tuple[int, int], ...]:
-    """C-STAGING: anchor plus Moore neighbours (row-major) adjacent to all cells chosen so far, up to 4."""
+def grid_key(grid: Mapping[str, Any] | None, rows: int, cols: int) -> GridSpec:
+    """The grid a controller plans on: the scenario's ``grid`` object (public scenario information,
+    C-INFORMATION) or, without one, the v1 default topology (D-TOPOLOGY: Moore radius 1) on the
+    observed size."""
+    if grid is None:
+        return (rows, cols, topology.DEFAULT_TOPOLOGY, topology.DEFAULT_RADIUS)
+    return topology.grid_spec(grid)
+
+
+@dataclass(frozen=True, eq=False)  # identity hash: the memo keys below stay cheap
+class Routes:
+    """C-STAGING on one grid: route distances in G_handoff, staging sets in G_manip, the G_obs
+    neighbourhoods of C-PARALLEL-AWARE's congestion — every relation from agspec.ir.topology."""
+
+    rows: int
+    cols: int
+    handoff: nx.Graph
+    manip: nx.Graph
+    obs: nx.Graph
+    # memo (not state): target -> hop counts to it, one BFS per target (the graph never changes)
+    _to: dict[Cell, dict[Cell, int]] = field(default_factory=dict, repr=False)
+
+    def distance(self, a: Cell, b: Cell) -> int | None:
+        """Route distance: hop count from a to b in G_handoff (None: b is unreachable from a)."""
+        to = self._to.get(b)
+        if to is None:
+            to = self._to[b] = nx.single_source_shortest_path_length(self.handoff, b) if b in self.handoff else {}
+        return to.get(a)
+
+    def observed_around(self, cell: Cell) -> tuple[Cell, ...]:
+        """The G_obs neighbours of ``cell`` (row-major)."""
+        return tuple(sorted(self.obs[cell])) if cell in self.obs else ()
+
+    def staging_set(self, anchor: Cell) -> tuple[Cell, ...]:
+        """C-STAGING: anchor plus its G_manip neighbours (row-major) adjacent in G_manip to all cells
+        chosen so far, up to 4; then any remaining neighbours."""
+        return _staging_set(self, anchor)
+
+    def item_target(self, product: int, token: str, final: bool, at: Cell) -> Cell:
+        """C-STAGING: where a held item at ``at`` should go: the output column for a terminal item,
+        else a cell of its product's staging set (anchored in the item's G_handoff component)."""
+        return _item_target(self, product, token, final, at)
+
+    def _target(self, product: int, token: str, final: bool, at: Cell) -> Cell:
+        if final:
+            return (at[0], self.cols - 1)
+        anchor = (product % max(1, self.rows - 1), max(0, self.cols - 3))
+        if self.distance(at, anchor) is None:  # RES-STAGING-TOPOLOGY: e.g. another row of a `line` grid
+            anchor = (at[0], anchor[1])
+        cells = self.staging_set(anchor)
+        return cells[token_slot(token) % len(cells)]
+
+
+@lru_cache(maxsize=64)  # pure: one set of graphs per grid
+def routes(grid: GridSpec) -> Routes:
+    rows, cols, topo, radius = grid
+    return Routes(rows, cols, topology.handoff_graph(rows, cols, topo, radius),
+                  topology.manipulation_graph(rows, cols, topo, radius),
+                  topology.observation_graph(rows, cols, topo, radius))
+
+
+@lru_cache(maxsize=65536)  # pure: items, tokens and cells repeat every tick
+def _item_target(r: Routes, product: int, token: str, final: bool, at: Cell) -> Cell:
+    return r._target(product, token, final, at)
+
+
+@lru_cache(maxsize=4096)  # pure function of the grid: one computation per (anchor, grid)
+def _staging_set(r: Routes, anchor: Cell) -> tuple[Cell, ...]:
     chosen = [anchor]
-    neighbours = [
-        (anchor[0] + di, anchor[1] + dj)
-        for di in (-1, 0, 1)
-        for dj in (-1, 0, 1)
-        if (di, dj) != (0, 0) and 0 <= anchor[0] + di < rows and 0 <= anchor[1] + dj < cols
-    ]
+    neighbours = sorted(r.manip[anchor]) if anchor in r.manip else []
     for n in neighbours:
         if len(chosen) == 4:
             break
-        if all(chebyshev(n, c) <= 1 for c in chosen):
+        if all(r.manip.has_edge(n, c) for c in chosen):
             chosen.append(n)
     for n in neighbours:  # fallback: any remaining neighbours
         if len(chosen) == 4:
@@ -56,15 +119,6 @@ def staging_set(anchor: tuple[int, int], rows: int, cols: int) -> tuple[tuple[in
         if n not in chosen:
             chosen.append(n)
     return tuple(chosen)
-
-
-def item_target(product: int, token: str, final: bool, at: tuple[int, int], rows: int, cols: int) -> tuple[int, int]:
-    """C-STAGING: where a held item should go: the output column for a terminal item, else a staging cell."""
-    if final:
-        return (at[0], cols - 1)
-    anchor = (product % max(1, rows - 1), max(0, cols - 3))
-    cells = staging_set(anchor, rows, cols)
-    return cells[token_slot(token) % len(cells)]
 
 
 @lru_cache(maxsize=4096)  # pure: a token's staging slot never changes

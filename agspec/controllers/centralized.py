@@ -95,8 +95,8 @@ class CentralizedController:
     name = "centralized"
     information = "global"
 
-    def __init__(self) -> None:
-        self._pa = GreedyController(parallel_aware=True)
+    def __init__(self, grid: Mapping[str, Any] | None = None) -> None:
+        self._pa = GreedyController(parallel_aware=True, grid=grid)
 
     def reset(self, seed: int | None = None) -> None:
         pass

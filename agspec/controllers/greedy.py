@@ -18,9 +18,10 @@ from agspec.controllers.base import (
     PICK0,
     RECEIVE0,
     Obs,
-    chebyshev,
-    item_target,
+    Routes,
+    grid_key,
     parse_cell,
+    routes,
 )
 from agspec.interp.model import DIRECTION_NAMES, DIRECTIONS
 
@@ -47,24 +48,24 @@ def operation_choice(obs: Obs) -> int | None:
     return None
 
 
-def congestion(obs: Obs, dest: tuple[int, int], neighbours: dict[tuple[int, int], Mapping[str, Any]]) -> int:
-    """C-PARALLEL-AWARE: busy or holding robots around ``dest`` among the robots this robot observes."""
+def congestion(routes: Routes, dest: tuple[int, int], neighbours: dict[tuple[int, int], Mapping[str, Any]]) -> int:
+    """C-PARALLEL-AWARE: busy or holding robots among the G_obs neighbours of ``dest`` that this robot
+    observes (cells it does not observe count 0)."""
     score = 0
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            if (di, dj) == (0, 0):
-                continue
-            nb = neighbours.get((dest[0] + di, dest[1] + dj))
-            if nb is None:
-                continue
-            score += (1 if nb["busy"] else 0) + (1 if nb["holding"] is not None else 0)
+    for cell in routes.observed_around(dest):
+        nb = neighbours.get(cell)
+        if nb is None:
+            continue
+        score += (1 if nb["busy"] else 0) + (1 if nb["holding"] is not None else 0)
     return score
 
 
-def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
-    """C-GREEDY logistics: pick, receive, deliver or hand off along a strictly shortening route."""
+def logistics_choice(obs: Obs, parallel_aware: bool, grid: Mapping[str, Any] | None = None) -> int:
+    """C-GREEDY logistics: pick, receive, deliver or hand off along a strictly shortening route
+    (route distances in G_handoff of ``grid``, C-STAGING)."""
     mask = obs["mask"]
     rows, cols = obs["grid"]
+    r = routes(grid_key(grid, rows, cols))
     me = parse_cell(obs["robot"])
     held = obs["holding"]
     if held is None:
@@ -79,19 +80,22 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
             if not mask[RECEIVE0 + d]:
                 continue
             at = parse_cell(nb["robot"])
-            target = item_target(item["product"], item["token"], item["final"], at, rows, cols)
-            gain = chebyshev(at, target) - chebyshev(me, target)
+            target = r.item_target(item["product"], item["token"], item["final"], at)
+            there, here = r.distance(at, target), r.distance(me, target)
+            if there is None or here is None:
+                continue
+            gain = there - here
             if gain <= 0:
                 continue
-            key = (-gain, chebyshev(me, target), d)
+            key = (-gain, here, d)
             if best is None or key < best[0]:
                 best = (key, RECEIVE0 + d)
         return best[1] if best else IDLE
     if mask[DELIVER]:
         return DELIVER
-    target = item_target(held["product"], held["token"], held["final"], me, rows, cols)
-    here = chebyshev(me, target)
-    if here == 0:
+    target = r.item_target(held["product"], held["token"], held["final"], me)
+    here = r.distance(me, target)
+    if not here:  # at the target (0) or, defensively, cut off from it (None)
         return IDLE
     by_cell = {parse_cell(n["robot"]): n for n in obs["neighbours"]}
     best = None
@@ -102,10 +106,10 @@ def logistics_choice(obs: Obs, parallel_aware: bool) -> int:
         nb = by_cell.get(dest)
         if nb is None or nb["holding"] is not None or nb["busy"]:
             continue
-        dist = chebyshev(dest, target)
-        if dist >= here:
+        dist = r.distance(dest, target)
+        if dist is None or dist >= here:
             continue
-        cong = congestion(obs, dest, by_cell) if parallel_aware else 0
+        cong = congestion(r, dest, by_cell) if parallel_aware else 0
         key = (dist, cong, -dj, abs(di), d)  # greedy: congestion is always 0
         if best is None or key < best[0]:
             best = (key, HANDOFF0 + d)
@@ -117,8 +121,9 @@ class GreedyController:
 
     information = "local"
 
-    def __init__(self, parallel_aware: bool = False):
+    def __init__(self, parallel_aware: bool = False, grid: Mapping[str, Any] | None = None):
         self.parallel_aware = parallel_aware
+        self.grid = grid  # the scenario grid (C-INFORMATION: public); None = the v1 default topology
         self.name = "parallel-aware" if parallel_aware else "greedy"
 
     def reset(self, seed: int | None = None) -> None:
@@ -137,7 +142,7 @@ class GreedyController:
             return op
         if obs.get("supports") is not None:
             return IDLE
-        return logistics_choice(obs, self.parallel_aware)
+        return logistics_choice(obs, self.parallel_aware, self.grid)
 
     def act(self, observations: Mapping[str, Obs], privileged: Any = None) -> dict[str, int]:
         return {robot: self.act_one(obs) for robot, obs in observations.items()}

@@ -19,6 +19,8 @@ PICK0, PICK_SLOTS = 2, 32
 HANDOFF0, RECEIVE0 = 34, 42
 OP0, OP_SLOTS = 50, 64
 DIRECTION_NAMES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+# direction index d -> (d_row, d_col): the eight radius-1 cells a handoff or receive action names
+DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
 
 
 class IllegalAction(ValueError):

@@ -11,15 +11,15 @@ from typing import Any
 
 import networkx as nx
 
-from agspec.formats.actions import DIRECTION_NAMES, HANDOFF0, IDLE, N_ACTIONS, RECEIVE0
+from agspec.formats.actions import DIRECTION_NAMES, DIRECTIONS, HANDOFF0, IDLE, N_ACTIONS, RECEIVE0
 from agspec.interp import geometry
 from agspec.interp.state import cell_id
 from agspec.ir import topology, variants
 
 Cell = tuple[int, int]
+DirectionSlots = dict[Cell, tuple[tuple[int, str, Cell], ...]]
 
-# DIRECTIONS index d -> (d_row, d_col) (O-ACTION-ENCODING)
-DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
+__all__ = ["DIRECTIONS", "DIRECTION_NAMES", "Model", "OperationSpec", "RecipeSpec"]
 
 
 @dataclass(frozen=True)
@@ -167,53 +167,70 @@ class Model:
             support_timeout=int(sc["coordination"]["support_timeout"]),
             switch_lock=int(sc["coordination"]["switch_lock"]),
             support_visible=variants.enabled("support_visible", sc),
-            k_topo=topology.grid_k_topo(rows, cols, grid.get("topology", "moore"), int(grid.get("radius", 1))),
+            k_topo=topology.grid_k_topo(*topology.grid_spec(grid)),
             pick_duration=int(prof["durations"]["pick"]),
             handoff_duration=int(prof["durations"]["handoff"]),
             deliver_duration=int(prof["durations"]["deliver"]),
         )
 
     @cached_property
+    def grid_spec(self) -> tuple[int, int, str, int]:
+        """(rows, cols, topology, radius) of the scenario grid, with the v1 defaults (D-TOPOLOGY)."""
+        return topology.grid_spec(self.instance["scenario"]["grid"])
+
+    @cached_property
     def topology(self) -> str:
-        return self.instance["scenario"]["grid"].get("topology", "moore")
+        return self.grid_spec[2]
 
     @cached_property
     def cells(self) -> tuple[Cell, ...]:
         return tuple((i, j) for i in range(self.rows) for j in range(self.cols))
 
     @cached_property
+    def manipulation_graph(self) -> nx.Graph:
+        """G_manip (D-TOPOLOGY), from agspec.ir.topology: who may share a coalition (R-CANDIDATES)."""
+        return topology.manipulation_graph(*self.grid_spec)
+
+    @cached_property
     def neighbours(self) -> dict[Cell, tuple[Cell, ...]]:
-        """Open neighbourhood N(u) minus u, in row-major order (D-TOPOLOGY; v1: Moore radius 1)."""
-        out = {}
-        for c in self.cells:
-            out[c] = tuple(d for d in self.cells if d != c and self.adjacent(c, d))
-        return out
+        """Open neighbourhood N(u) minus u in G_manip, in row-major order (D-TOPOLOGY)."""
+        graph = self.manipulation_graph
+        return {c: tuple(sorted(graph[c])) for c in self.cells}
 
     @cached_property
     def _adjacency(self) -> frozenset[tuple[Cell, Cell]]:
-        grid = self.instance["scenario"]["grid"]
-        radius = int(grid.get("radius", 1))
-        return frozenset(
-            (a, b) for a in self.cells for b in self.cells if topology.adjacent(a, b, self.topology, radius)
-        )
+        return frozenset(pair for a, b in self.manipulation_graph.edges for pair in ((a, b), (b, a)))
+
+    @staticmethod
+    def _slots(graph: nx.Graph) -> DirectionSlots:
+        return {c: tuple((d, DIRECTION_NAMES[d], n) for d, n in around)
+                for c, around in topology.direction_slots(graph).items()}
 
     @cached_property
-    def moore_neighbours(self) -> dict[Cell, tuple[tuple[int, str, Cell], ...]]:
-        """The in-grid Moore neighbours of each cell as (direction index, direction name, cell), in
-        O-ACTION-ENCODING direction order: the slots of handoff/receive actions and observations."""
-        cells = set(self.cells)
-        return {
-            c: tuple((d, DIRECTION_NAMES[d], (c[0] + di, c[1] + dj)) for d, (di, dj) in enumerate(DIRECTIONS)
-                     if (c[0] + di, c[1] + dj) in cells)
-            for c in self.cells
-        }
+    def handoff_slots(self) -> DirectionSlots:
+        """Each cell's G_handoff neighbours as (direction index, direction name, cell), in
+        O-ACTION-ENCODING direction order: the handoff/receive slots that can ever match (R-HANDOFF, O-MASK)."""
+        return self._slots(topology.handoff_graph(*self.grid_spec))
+
+    @cached_property
+    def observation_slots(self) -> DirectionSlots:
+        """Each cell's G_obs neighbours as (direction index, direction name, cell), in direction order:
+        the neighbour entries of its observation (O-OBSERVATION)."""
+        return self._slots(topology.observation_graph(*self.grid_spec))
+
+    @cached_property
+    def handoff_partner(self) -> dict[tuple[Cell, int], tuple[Cell, int]]:
+        """(u, d) -> (v, d'): the G_handoff neighbour v of u in direction d and the direction d' that
+        points back at u (R-HANDOFF clause 1); absent when u has no such neighbour."""
+        return {(c, d): (n, DIRECTIONS.index((c[0] - n[0], c[1] - n[1])))
+                for c, around in self.handoff_slots.items() for d, _, n in around}
 
     @cached_property
     def direction_masks(self) -> dict[Cell, tuple[tuple[bool, ...], tuple[bool, ...]]]:
-        """The static part of O-MASK per cell: idle plus every in-grid receive slot (for an empty
-        robot) and idle plus every in-grid handoff slot (for a holding robot)."""
+        """The static part of O-MASK per cell: idle plus the receive slot of every G_handoff neighbour
+        (for an empty robot) and idle plus its handoff slot (for a holding robot)."""
         out = {}
-        for c, around in self.moore_neighbours.items():
+        for c, around in self.handoff_slots.items():
             receive, handoff = [False] * N_ACTIONS, [False] * N_ACTIONS
             receive[IDLE] = handoff[IDLE] = True
             for d, _, _ in around:

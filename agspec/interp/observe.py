@@ -148,7 +148,7 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mas
         for k in range(n_ops):
             mask[OP0 + k] = True
         return tuple(mask)  # a supporting robot may only keep or switch its support (R-HELD-MATERIAL)
-    receive, handoff = model.direction_masks[cell]  # idle and the in-grid receive / handoff slots
+    receive, handoff = model.direction_masks[cell]  # idle and the receive / handoff slots of G_handoff neighbours
     if robot.holding is None:
         if not options.picks and not n_ops:
             return receive
@@ -239,16 +239,16 @@ def epoch_views(state: State, model: Model, candidates: list[Candidate]) -> Epoc
 
 def observation(state: State, model: Model, cell: Cell, options: Options, mask: Mask,
                 views: EpochViews | None = None) -> dict[str, Any]:
-    """O-OBSERVATION: own state, Moore neighbours' task-level state, options, mask, own support.
+    """O-OBSERVATION: own state, G_obs neighbours' task-level state, options, mask, own support.
 
     No global state, no remote robots, no due dates or values, no supporter identities.
     ``views`` (optional) are the epoch's shared parts; every record gets its own copies.
     """
     public = views.robots if views is not None else {
-        nc: public_view(state, model, nc) for nc in (cell, *(nc for _, _, nc in model.moore_neighbours[cell]))}
+        nc: public_view(state, model, nc) for nc in (cell, *(nc for _, _, nc in model.observation_slots[cell]))}
     own = public[cell]
     neighbours = []
-    for _, direction, nc in model.moore_neighbours[cell]:
+    for _, direction, nc in model.observation_slots[cell]:
         record = public[nc].copy()
         record["dir"] = direction
         if record["holding"] is not None:

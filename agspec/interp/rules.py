@@ -10,7 +10,7 @@ from typing import Any, Iterable
 
 from agspec.interp import geometry
 from agspec.interp.candidates import Candidate
-from agspec.interp.model import DIRECTIONS, Model
+from agspec.interp.model import Model
 from agspec.interp.state import Activity, Cell, Product, Proposal, State, cell_id
 
 Events = list[dict[str, Any]]
@@ -150,20 +150,19 @@ def start_picks(state: State, model: Model, picks: list[tuple[Cell, dict]], even
 def start_handoffs(state: State, model: Model, sends: dict[Cell, int], receives: dict[Cell, int], events: Events) -> None:
     """R-HANDOFF: a transfer starts only on matching handoff(v) by u and receive(u) by v.
 
-    Senders are processed in row-major order; both robots must be free, the sender holding, the
-    receiver empty, neither already in a transfer started this epoch; the plan targets the midpoint
-    of the two bases (G-HANDOFF-POINT) with the profile's handoff duration.
+    Senders are processed in row-major order; the receiver must be the sender's G_handoff neighbour in
+    the chosen direction (D-TOPOLOGY); both robots must be free, the sender holding, the receiver
+    empty, neither already in a transfer started this epoch; the plan targets the midpoint of the two
+    bases (G-HANDOFF-POINT) with the profile's handoff duration.
     """
     t = state.t
     engaged: set[Cell] = set()
     spacing = float(model.profile["spacing"])
     for sender_cell in sorted(sends):
-        d = sends[sender_cell]
-        di, dj = DIRECTIONS[d]
-        recv_cell = (sender_cell[0] + di, sender_cell[1] + dj)
-        if recv_cell not in state.robots:
+        partner = model.handoff_partner.get((sender_cell, sends[sender_cell]))
+        if partner is None:  # clause 1: no robot in that direction, or not a G_handoff neighbour
             continue
-        back = DIRECTIONS.index((-di, -dj))
+        recv_cell, back = partner
         if receives.get(recv_cell) != back:
             continue
         sender, receiver = state.robots[sender_cell], state.robots[recv_cell]

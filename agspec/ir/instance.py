@@ -174,8 +174,16 @@ def draw_shelf_access(
 
 
 def _slack_range(products: Mapping[str, Any]) -> tuple[float, float]:
+    """S-PRODUCT-DRAW: the arguments (lo, hi) of the slack draw uniform(lo, hi)."""
     slack, jitter = products["due_slack"], products["due_slack_jitter"]
     return max(1, slack - jitter), slack + jitter
+
+
+def slack_bounds(products: Mapping[str, Any]) -> tuple[float, float]:
+    """The closed interval of slacks uniform(lo, hi) can draw: [hi, lo] when due_slack + jitter < 1
+    makes lo = 1 > hi (RES-SLACK-BELOW-ONE)."""
+    lo, hi = _slack_range(products)
+    return min(lo, hi), max(lo, hi)
 
 
 def draw_product(

@@ -21,6 +21,11 @@ The coalition bound k_topo = omega(G_manip) is *derived*, never declared (D-KTOP
 with networkx's clique enumeration.  Default Moore radius 1: 4 on any grid with at least 2 rows and
 2 columns; von Neumann and line radius 1: 2; a 1x1 grid: 1.
 
+The action encoding and the observation address G_handoff and G_obs neighbours by direction slot
+(O-ACTION-ENCODING): :func:`direction_slots` gives, per cell, the (direction index, neighbour) pairs
+of such a graph.  Every user of a locality relation (interpreter, controllers, adapters, invariant
+checker) takes it from here, so no caller re-derives the relation from the grid.
+
 All functions are pure and build fresh graphs (grids are small).
 """
 
@@ -29,6 +34,8 @@ from __future__ import annotations
 from typing import Callable
 
 import networkx as nx
+
+from agspec.formats.actions import DIRECTIONS
 
 Cell = tuple[int, int]
 
@@ -132,6 +139,18 @@ def observation_graph(
     """D-TOPOLOGY: G_obs — pairs whose task-level dynamic state is mutually observable
     (O-OBSERVATION); only the eight direction cells carry neighbour slots (RES-RADIUS)."""
     return _grid_graph(rows, cols, topology, radius, directions_only=True)
+
+
+def direction_slots(graph: nx.Graph) -> dict[Cell, tuple[tuple[int, Cell], ...]]:
+    """O-ACTION-ENCODING: for each cell of a direction-cell graph (G_handoff or G_obs), its neighbours
+    as (direction index d, cell) in direction order d = 0 .. 7 (RES-RADIUS: only the eight radius-1
+    cells can be neighbours in these graphs)."""
+    out = {}
+    for c in graph.nodes:
+        around = graph[c]
+        out[c] = tuple((d, (c[0] + di, c[1] + dj)) for d, (di, dj) in enumerate(DIRECTIONS)
+                       if (c[0] + di, c[1] + dj) in around)
+    return out
 
 
 def k_topo(graph: nx.Graph) -> int:

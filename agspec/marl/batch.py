@@ -50,7 +50,7 @@ class BatchEncoder:
         # neighbour slot d of robot k reads row neighbours[k, d] of the feature table; row n is all zeros
         self.neighbours = np.full((n, 8), n, dtype=np.intp)
         for k, c in enumerate(self.cells):
-            for d, _, nc in model.moore_neighbours[c]:
+            for d, _, nc in model.observation_slots[c]:  # G_obs neighbours (O-OBSERVATION)
                 self.neighbours[k, d] = index[nc]
         span_r, span_c = pub.spans
         self.position = np.array([[_frac(i, span_r), _frac(j, span_c)] for i, j in self.cells], dtype=np.float64)

@@ -67,7 +67,7 @@ class ControllerSession:
 
         self.sim = Simulator(instance)
         self.sim.reset(exec_seed)
-        self.controller = make_controller(spec.target)
+        self.controller = make_controller(spec.target, grid=instance["scenario"]["grid"])
         self.controller.reset(exec_seed)
         self.name, self.information = self.controller.name, self.controller.information
         self.observations: Mapping[str, Any] | None = None

@@ -333,6 +333,7 @@ def scenario_text(
     shelves: str = "capacity 6 replenish 100 extra_access 0",
     coordination: str = "support_timeout 3 switch_lock 1 support_visible on bilateral_handoff on",
     resources: str = "",
+    products: str = "mass 0.5..2.0 due_slack 2.2 jitter 0.5",
 ) -> str:
     return f"""
 scenario {name} {{
@@ -346,7 +347,7 @@ scenario {name} {{
     evaluation {evaluation}
     shelves {shelves}
     coordination {coordination}
-    products mass 0.5..2.0 due_slack 2.2 jitter 0.5
+    products {products}
     {resources}
 }}
 """
@@ -441,7 +442,6 @@ INSTANCES: dict[str, dict[str, Any]] = {
                             patches=[shelf_access({0: [0, 1], 1: [0, 1]})]),
     "pair-2x2-nomotion": dict(grid="2 x 2", recipe="pair", profile="nomotion-v1",
                               patches=[shelf_access({0: [0, 1], 1: [0, 1]})]),
-    # PR-VARIANT: the conflict variants of abstract-v1 (rho_conf 0.12 / 0.40) and a larger clearance.
     # PR-VARIANT: the conflict variants of abstract-v1 (rho_conf 0.12 / 0.40) and a larger clearance (0.25):
     # every product's A comes from shelf row 0, which both left robots can reach.
     **{f"twostep-2x2-{tag}": dict(grid="2 x 2", recipe="twostep", profile=profile, variant=variant, release=1, wip=2,
@@ -471,6 +471,20 @@ INSTANCES: dict[str, dict[str, Any]] = {
     # S-EVALUATION: batch of two products, an opportunity every 2 ticks.
     "solo-1x2-batch2-flat": dict(grid="1 x 2", recipe="solo", profile="flat-v1", release=2, wip=2,
                                  evaluation="batch 2 timeout 20"),
+    # D-TOPOLOGY: one holder (0,0 picks product 0's A from its own row) and helpers under each
+    # topology and radius; the locality relations decide handoffs, masks, observations and coalitions.
+    "topo-vn-2x2-flat": dict(grid="2 x 2 von_neumann radius 1", recipe="insert4", profile="flat-v1",
+                             patches=[source_rows({"A": 0})]),
+    "topo-vn-2x3-r2-flat": dict(grid="2 x 3 von_neumann radius 2", recipe="insert4", profile="flat-v1",
+                                patches=[source_rows({"A": 0})]),
+    "topo-line-2x3-flat": dict(grid="2 x 3 line radius 1", recipe="insert4", profile="flat-v1",
+                               patches=[source_rows({"A": 0})]),
+    "topo-line-1x4-r2-flat": dict(grid="1 x 4 line radius 2", recipe="insert4", profile="flat-v1"),
+    "topo-moore-2x3-r2-flat": dict(grid="2 x 3 moore radius 2", recipe="insert4", profile="flat-v1",
+                                   patches=[source_rows({"A": 0})]),
+    # RES-SLACK-BELOW-ONE: due_slack + jitter < 1, so every slack lies in [0.5, 1] (uniform(1, 0.5)).
+    "solo-1x2-slack-flat": dict(grid="1 x 2", recipe="solo", profile="flat-v1", release=4, wip=2,
+                                evaluation="continuing horizon 12", products="mass 0.5..2.0 due_slack 0.5 jitter 0"),
 }
 
 

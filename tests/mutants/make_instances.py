@@ -213,6 +213,8 @@ INSTANCES: dict[str, dict[str, Any]] = {
                             source_row=1),
     # a holder that may work alone or with a helper (support records that wait for a partner)
     "duo-1x2-flat": dict(grid="1 x 2", recipe="duo", profile=FLAT),
+    # a von Neumann grid: no diagonal handoff, receive or neighbour (topology ignored)
+    "duo-2x2-vn-flat": dict(grid="2 x 2 von_neumann radius 1", recipe="duo", profile=FLAT),
     # motion time on: approaches of 1, 2 and 5 ticks make ceil and round differ (duration rounding)
     "solo-2x3-motion": dict(grid="2 x 3", recipe="solo", profile=MOTION, release=3, wip=3, horizon=60,
                             shelves="capacity 6 replenish 5 extra_access 1"),

@@ -427,6 +427,19 @@ def mask_hides(session: Session) -> None:
     tick.action_mask = action_mask
 
 
+@mutant("topology-ignored", "D-TOPOLOGY / O-MASK / INV-MASKING", "fail",
+        ("INV-MASKING", "INV-OBSERVATION", "/observations/*/mask", "/observations/*/neighbours", "/masks"),
+        Workload("duo-2x2-vn-flat.json", "random", 4), "INV-MASKING")
+def topology_ignored(session: Session) -> None:
+    """Topology ignored: every grid is read as Moore radius 1 (G_manip, G_handoff, G_obs), whatever
+    its `topology` and `radius`."""
+    from agspec.ir import topology
+
+    for name in ("manipulation_graph", "handoff_graph", "observation_graph"):
+        orig = getattr(topology, name)
+        setattr(topology, name, lambda rows, cols, *_, _orig=orig: _orig(rows, cols, "moore", 1))  # BUG
+
+
 # =============================================================================================
 # variant parameters hard-coded: the official value instead of the instance's (S-RULE-VARIANTS,
 # PR-VARIANT, PR-ABSTRACT-V1, S-COORDINATION, S-SHELVES, S-EVALUATION, RC-RESOURCES)

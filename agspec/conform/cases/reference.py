@@ -119,7 +119,7 @@ def lint_suite(cases: Sequence[Case], *, run: bool = True) -> list[str]:
     """
 
     problems: list[str] = []
-    known = set(spec_ids(("R-", "INV-")))
+    known = set(spec_ids(("R-", "O-", "D-", "INV-")))
     seen: dict[str, Case] = {}
     checked: dict[str, list[str]] = {}
     for case in cases:
@@ -129,7 +129,7 @@ def lint_suite(cases: Sequence[Case], *, run: bool = True) -> list[str]:
         seen.setdefault(case.id, case)
         for ident in case.rules + case.invariants:
             if ident not in known:
-                problems.append(f"{loc}: {ident} is not a rule or invariant heading of the spec")
+                problems.append(f"{loc}: {ident} is not a rule or invariant heading of the spec (R-, O-, D-, INV-)")
         fp = fingerprint(case.instance)
         if fp not in checked:
             issues = errors(validate_schema(case.instance)) or errors(validate_instance(case.instance))

@@ -12,7 +12,6 @@ from agspec.ir import topology, variants
 
 Json = dict[str, Any]
 
-DIRECTIONS = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1))
 REACH_TOLERANCE = 1e-9  # G-REACH
 CONFLICT_TOLERANCE = 1e-12  # G-CONFLICT
 SUPPORT_TOLERANCE = 1e-12
@@ -245,8 +244,8 @@ class Context:
     evaluated: Counter = field(default_factory=Counter)  # invariant ID -> records evaluated
     skipped: dict[str, str] = field(default_factory=dict)  # invariant ID -> why a clause was skipped
     _views: dict[int, tuple[Json, StateView]] = field(default_factory=dict)
-    # static neighbourhoods of the grid, memoized per robot (the grid never changes within a trace)
-    _direction_nb: dict[str, list[tuple[int, str]]] = field(default_factory=dict)
+    # the grid's locality relations (agspec.ir.topology), built once per trace: relation -> graph / slots
+    _graphs: dict[str, Any] = field(default_factory=dict)
     _observable: dict[str, frozenset[str]] = field(default_factory=dict)
     _transitions: dict[tuple[int, int], tuple[Json, Json, Transition]] = field(default_factory=dict)
 
@@ -286,35 +285,47 @@ class Context:
             realization_products=list(real["products"]),
         )
 
-    # ---- grid relations (D-TOPOLOGY)
+    # ---- grid relations (D-TOPOLOGY), all three from agspec.ir.topology
+
+    def _graph(self, relation: str) -> Any:
+        graph = self._graphs.get(relation)
+        if graph is None:
+            build = {"manip": topology.manipulation_graph, "handoff": topology.handoff_graph,
+                     "obs": topology.observation_graph}[relation]
+            graph = self._graphs[relation] = build(self.rows, self.cols, self.topology, self.radius)
+        return graph
+
+    def _slots(self, relation: str) -> dict[str, list[tuple[int, str]]]:
+        key = f"{relation}-slots"
+        slots = self._graphs.get(key)
+        if slots is None:
+            slots = self._graphs[key] = {cell_id(c): [(d, cell_id(n)) for d, n in around]
+                                         for c, around in topology.direction_slots(self._graph(relation)).items()}
+        return slots
 
     def manip_adjacent(self, a: str, b: str) -> bool:
         """G_manip adjacency of two robot ids."""
-        return topology.adjacent(parse_cell(a), parse_cell(b), self.topology, self.radius)
+        return self._graph("manip").has_edge(parse_cell(a), parse_cell(b))
 
-    def direction_adjacent(self, a: str, b: str) -> bool:
-        """G_handoff / G_obs adjacency: G_manip restricted to the eight direction cells (RES-RADIUS)."""
-        ca, cb = parse_cell(a), parse_cell(b)
-        return max(abs(ca[0] - cb[0]), abs(ca[1] - cb[1])) <= 1 and topology.adjacent(ca, cb, self.topology, self.radius)
+    def manip_neighbours(self, robot: str) -> list[str]:
+        """u's G_manip neighbours (robot ids, row-major); none for a robot outside the grid."""
+        graph, c = self._graph("manip"), parse_cell(robot)
+        return [cell_id(n) for n in sorted(graph[c])] if c in graph else []
+
+    def handoff_adjacent(self, a: str, b: str) -> bool:
+        """G_handoff adjacency of two robot ids (RES-RADIUS: within the eight direction cells)."""
+        return self._graph("handoff").has_edge(parse_cell(a), parse_cell(b))
 
     def in_grid(self, cell: tuple[int, int]) -> bool:
         return 0 <= cell[0] < self.rows and 0 <= cell[1] < self.cols
 
-    def direction_neighbours(self, robot: str) -> list[tuple[int, str]]:
-        """(direction index, robot id) of u's G_handoff / G_obs neighbours, in DIRECTIONS order."""
-        cached = self._direction_nb.get(robot)
-        if cached is None:
-            cached = self._direction_nb[robot] = self._direction_neighbours(robot)
-        return cached
+    def handoff_neighbours(self, robot: str) -> list[tuple[int, str]]:
+        """(direction index, robot id) of u's G_handoff neighbours in direction order (O-MASK)."""
+        return self._slots("handoff").get(robot, [])
 
-    def _direction_neighbours(self, robot: str) -> list[tuple[int, str]]:
-        c = parse_cell(robot)
-        out = []
-        for d, (di, dj) in enumerate(DIRECTIONS):
-            n = (c[0] + di, c[1] + dj)
-            if self.in_grid(n) and topology.adjacent(c, n, self.topology, self.radius):
-                out.append((d, cell_id(n)))
-        return out
+    def observation_neighbours(self, robot: str) -> list[tuple[int, str]]:
+        """(direction index, robot id) of u's G_obs neighbours in direction order (O-OBSERVATION)."""
+        return self._slots("obs").get(robot, [])
 
     def capacity(self, resource: str) -> int:
         return self.capacities.get(resource, 1)

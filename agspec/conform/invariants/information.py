@@ -15,7 +15,6 @@ from agspec.conform.invariants.context import (
     Json,
     StateView,
     Violation,
-    cell_id,
     parse_candidate,
     parse_cell,
     parse_item,
@@ -34,7 +33,6 @@ from agspec.formats.actions import (
     RECEIVE0,
 )
 from agspec.formats.actions import describe as _action_name
-from agspec.ir import topology
 
 
 # --------------------------------------------------------------------------- INV-OBSERVATION
@@ -141,7 +139,7 @@ def inv_observation(ctx: Context, prev: Json | None, rec: Json) -> list[Violatio
         if obs.get("supports") != r.get("supports"):
             bad(robot, f"{robot} observes its support as {obs.get('supports')}, the state has {r.get('supports')}")
         # neighbours: exactly the G_obs neighbours, with their state of s_t
-        expected_nb = {nid: DIRECTION_NAMES[d] for d, nid in ctx.direction_neighbours(robot)}
+        expected_nb = {nid: DIRECTION_NAMES[d] for d, nid in ctx.observation_neighbours(robot)}
         seen_nb = []
         for nb in obs.get("neighbours") or []:
             if not isinstance(nb, dict):
@@ -225,20 +223,9 @@ def _observable_ids(ctx: Context, robot: str) -> frozenset[str]:
     neighbours (co-members of its candidates); memoized, the grid is static."""
     cached = ctx._observable.get(robot)
     if cached is None:
-        ids = {robot} | {nid for _, nid in ctx.direction_neighbours(robot)}
-        cached = ctx._observable[robot] = frozenset(ids | {cell_id(c) for c in _manip_neighbours(ctx, robot)})
+        ids = {robot} | {nid for _, nid in ctx.observation_neighbours(robot)}
+        cached = ctx._observable[robot] = frozenset(ids | set(ctx.manip_neighbours(robot)))
     return cached
-
-
-def _manip_neighbours(ctx: Context, robot: str) -> list[tuple[int, int]]:
-    c = parse_cell(robot)
-    r = ctx.radius
-    out = []
-    for i in range(c[0] - r, c[0] + r + 1):
-        for j in range(c[1] - r, c[1] + r + 1):
-            if (i, j) != c and ctx.in_grid((i, j)) and topology.adjacent(c, (i, j), ctx.topology, r):
-                out.append((i, j))
-    return out
 
 
 # --------------------------------------------------------------------------- INV-MASKING
@@ -262,7 +249,7 @@ def expected_mask(ctx: Context, view: StateView, robot: str, obs: Json) -> list[
         mask[OP0 + k] = True
     if pending is not None:
         return mask
-    directions = [d for d, _ in ctx.direction_neighbours(robot)]
+    directions = [d for d, _ in ctx.handoff_neighbours(robot)]
     if r.get("holding") is None:
         for k in range(min(len(obs.get("pick_options") or []), PICK_SLOTS)):
             mask[PICK0 + k] = True

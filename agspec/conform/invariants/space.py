@@ -38,7 +38,7 @@ def inv_locality(ctx: Context, prev: Json | None, rec: Json) -> list[Violation]:
                         out.append(Violation(ID, s.t, aid, f"coalition of {aid}: members {u} and {v} are not adjacent "
                                                            f"in G_manip ({ctx.topology}, radius {ctx.radius})"))
         elif kind == "handoff":
-            if len(members) != 2 or not ctx.direction_adjacent(members[0], members[1]):
+            if len(members) != 2 or not ctx.handoff_adjacent(members[0], members[1]):
                 out.append(Violation(ID, s.t, aid, f"handoff {aid} between {members} is not between G_handoff "
                                                    f"neighbours ({ctx.topology})"))
         elif kind == "pick":

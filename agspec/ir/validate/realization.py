@@ -361,7 +361,7 @@ def _check_product_draws(
                             _ptr("realization", "products", k, "mass"), "mass ~ U(min, max)"))
     ds, jitter = params.get("due_slack"), params.get("due_slack_jitter")
     if _is_num(ds) and _is_num(jitter) and _is_num(slack):
-        lo, hi = max(1, ds - jitter), ds + jitter
+        lo, hi = _slack_bounds(ds, jitter)
         if not lo <= slack <= hi:
             out.append(_err("AG513", f"product {k} has due slack {slack}, outside [{lo}, {hi}]",
                             _ptr("realization", "products", k, "slack"),
@@ -374,6 +374,13 @@ def _check_product_draws(
                                 _ptr("realization", "products", k, "due_offset"),
                                 "LB = max(pick + critical path + deliver, N - 1)"))
     return out
+
+
+def _slack_bounds(due_slack: float, jitter: float) -> tuple[float, float]:
+    """The slacks S-PRODUCT-DRAW can draw, from the draw's own definition (RES-SLACK-BELOW-ONE)."""
+    from agspec.ir.instance import slack_bounds
+
+    return slack_bounds({"due_slack": due_slack, "due_slack_jitter": jitter})
 
 
 def _lower_bound(recipe: Mapping, profile: Mapping, cols: int) -> int | None:
