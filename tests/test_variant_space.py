@@ -18,9 +18,6 @@ from agspec.resources import conformance_dir
 
 ROOT = conformance_dir()
 TOPOLOGY = [e.id for e in V.entries() if e.kind == "relation"]
-# D-TOPOLOGY rows the suite does not reach yet: they become covered by the topology and radius cases
-# (and the reference's topology handling) of the topology work; remove this set when they are merged.
-PENDING_TOPOLOGY = {e for e in TOPOLOGY if e != "topology:G_manip/moore/1"}
 
 
 def instance(name: str) -> dict:
@@ -168,8 +165,6 @@ def test_the_default_run_covers_every_variant_entry(covered):
             assert row["items"] and all(i in row["findings"] for i in row["items"])
 
 
-@pytest.mark.parametrize("ident", [
-    pytest.param(i, marks=pytest.mark.xfail(strict=True, reason="covered by the topology and radius cases"))
-    if i in PENDING_TOPOLOGY else i for i in TOPOLOGY])
+@pytest.mark.parametrize("ident", TOPOLOGY)
 def test_the_default_run_covers_each_d_topology_relation(ident, covered):  # D-TOPOLOGY
     assert ident not in covered["uncovered"], f"uncovered: {ident}"

@@ -480,6 +480,8 @@ INSTANCES: dict[str, dict[str, Any]] = {
     "topo-line-2x3-flat": dict(grid="2 x 3 line radius 1", recipe="insert4", profile="flat-v1",
                                patches=[source_rows({"A": 0})]),
     "topo-line-1x4-r2-flat": dict(grid="1 x 4 line radius 2", recipe="insert4", profile="flat-v1"),
+    "topo-line-2x3-r2-flat": dict(grid="2 x 3 line radius 2", recipe="insert4", profile="flat-v1",
+                                  patches=[source_rows({"A": 0})]),
     "topo-moore-2x3-r2-flat": dict(grid="2 x 3 moore radius 2", recipe="insert4", profile="flat-v1",
                                    patches=[source_rows({"A": 0})]),
     # RES-SLACK-BELOW-ONE: due_slack + jitter < 1, so every slack lies in [0.5, 1] (uniform(1, 0.5)).
