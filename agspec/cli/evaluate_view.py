@@ -80,9 +80,11 @@ class Campaign:
     """What one `agspec evaluate` invocation runs and shows."""
 
     def __init__(self, specs: list, scenarios: list[str], split: str | None, indices: list[int],
-                 reused: dict[str, Any] | None, strict: bool, timeout: float, repeats: int):
+                 reused: dict[str, Any] | None, strict: bool, timeout: float, repeats: int,
+                 load_timeout: float | None = None):
         self.specs, self.scenarios, self.split, self.indices = specs, scenarios, split, indices
         self.reused, self.strict, self.timeout, self.repeats = reused, strict, timeout, repeats
+        self.load_timeout = load_timeout
         self.episodes: list[dict[str, Any]] = list(reused["episodes"]) if reused else []
         self.findings: list[dict[str, Any]] = list(reused["nondeterminism"]) if reused else []
         self.failed = False
@@ -100,7 +102,8 @@ class Campaign:
     @classmethod
     def plan(cls, *, bundles: Sequence[Path], policies: Sequence[str], names: Sequence[str],
              versions: Sequence[str], controllers: Sequence[str], scenarios: Sequence[str], split: str | None,
-             indices: str | None, strict: bool, timeout: float, repeats: int) -> "Campaign":
+             indices: str | None, strict: bool, timeout: float, repeats: int,
+             load_timeout: float | None = None) -> "Campaign":
         from agspec.catalogue import OFFICIAL_SCENARIOS
         from agspec.policy.bundle import BundleError, combine, read_bundle
         from agspec.policy.contract import PolicySpecError, parse_policy
@@ -130,7 +133,7 @@ class Campaign:
             idx = sorted({ep["index"] for ep in reused["episodes"]})
         else:
             chosen = list(OFFICIAL_SCENARIOS)
-        return cls(specs, chosen, split, idx, reused, strict, timeout, repeats)
+        return cls(specs, chosen, split, idx, reused, strict, timeout, repeats, load_timeout)
 
     # ------------------------------------------------------------------ running
 
@@ -154,9 +157,10 @@ class Campaign:
                                   "execution_seed": inst.get("seeds", {}).get("execution")})
                 for spec in self.specs:
                     if (spec.label, name, k, False) not in have:
-                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout))
+                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, load_timeout=self.load_timeout))
                     if spec.kind != "controller" and n < self.repeats and (spec.label, name, k, True) not in have:
-                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, repeat=True))
+                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, repeat=True,
+                                        load_timeout=self.load_timeout))
         return todo, instances
 
     def run(self, executor: ExecutorSpec, out: Path | None, show: bool) -> None:
@@ -172,7 +176,8 @@ class Campaign:
             known = {(i["scenario"], i["index"]): i for i in (self.reused or {}).get("instances", [])}
             known.update({(i["scenario"], i["index"]): i for i in instances})
             head = header(policies.values(), known.values(), split=self.split, workers=executor.jobs or 1,
-                          options={"strict": self.strict, "timeout": self.timeout, "repeat": self.repeats})
+                          options={"strict": self.strict, "timeout": self.timeout,
+                                   "load_timeout": self.load_timeout, "repeat": self.repeats})
             try:
                 writer = BundleWriter(out, head)
             except BundleError as exc:
