@@ -273,7 +273,9 @@ def summarize(runs: list[dict[str, Any]], keys: Iterable[str] = ("delivered",)) 
         for key in keys:
             values = [r["metrics"][key] for r in group if r.get("metrics") and r["metrics"].get(key) is not None]
             mean, half = mean_ci([float(v) for v in values])
-            entry[key] = {"mean": mean, "half_width": half, "n": len(values)}
+            # JSON has no NaN; one value has no interval (F-POLICY-COVERAGE: never "± 0" over n = 1)
+            entry[key] = {"mean": mean if math.isfinite(mean) else None,
+                          "half_width": half if len(values) >= 2 and math.isfinite(half) else None, "n": len(values)}
         out.append(entry)
     return out
 

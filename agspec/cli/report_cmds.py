@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from agspec.cli.common import EXIT_USAGE, fail, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, fail, stdout
 from agspec.cli.run_cmds import METRICS
 
 FORMATS = ("markdown", "latex", "svg", "png", "pdf")
@@ -20,11 +20,20 @@ FORMATS = ("markdown", "latex", "svg", "png", "pdf")
 @click.option("--metric", "metric_keys", multiple=True, type=click.Choice(METRICS),
               help="Metrics of the tables (default delivered and completion_rate).")
 @click.option("--no-published", is_flag=True, help="Leave out the paper's published MARL rows.")
+@click.option("--allow-incomplete", is_flag=True,
+              help="Render rows with errors or missing episodes, marked ‡ with their n of N (F-POLICY-COVERAGE); "
+                   "without it they are refused. Either way such rows make the exit status 1.")
 def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys: tuple[str, ...],
-           no_published: bool) -> None:
-    """Write results bundles (agspec evaluate --out) as the paper's table or family figure."""
+           no_published: bool, allow_incomplete: bool) -> None:
+    """Write results bundles (agspec evaluate --out) as the paper's table or family figure.
+
+    Every table and figure states n per row and the instance set ("10 of 50 final-test instances");
+    a row with errors or missing episodes is refused unless --allow-incomplete, and exits 1.
+    """
+    from agspec.cli.evaluate_view import refuse_incomplete
     from agspec.controllers import CONTROLLERS
     from agspec.policy.bundle import BundleError, combine, read_bundle
+    from agspec.policy.coverage import describe_sets, final_test_only, incomplete
     from agspec.policy.stats import MissingExtra, compare
     from agspec.policy.tables import latex, layout, markdown
 
@@ -33,38 +42,51 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
     except BundleError as exc:
         fail(str(exc))
     episodes = data["episodes"]
-    labels = list(dict.fromkeys(ep["controller"] for ep in episodes))
-    scenarios = list(dict.fromkeys(ep["scenario"] for ep in episodes))
+    planned = data["planned"]
+    labels = list(dict.fromkeys([ep["controller"] for ep in episodes] + [lab for lab, _ in planned]))
+    scenarios = list(dict.fromkeys([ep["scenario"] for ep in episodes] + [s for _, s in planned]))
     metrics = metric_keys or ("delivered", "completion_rate")
+    figure = to in ("svg", "png", "pdf")
+    if figure:
+        from agspec.policy.figure import SCENARIOS
+
+        scenarios = [s for s in scenarios if s in SCENARIOS]
+    problems = incomplete(episodes, planned, labels, scenarios)
+    refuse_incomplete(problems, allow_incomplete, "figure" if figure else "report")
+    shown = {k: v for k, v in planned.items() if k[1] in scenarios}
+    instances = describe_sets(shown, scenarios, data.get("split"))
+    with_published = not no_published and final_test_only(shown)  # F-POLICY-PUBLISHED: final-test numbers
     try:
-        if to in ("svg", "png", "pdf"):
+        if figure:
             from agspec.policy.figure import draw
 
             target = output or bundles[0].with_suffix("." + to)
             try:
-                draw(episodes, labels, target, with_published=not no_published)
+                draw(episodes, labels, target, with_published=with_published, planned=planned, instances=instances)
             except OSError as exc:
                 fail(f"cannot write {target}: {exc.strerror or exc}")
             stdout.print(f"figure written to {target}")
-            return
+            raise SystemExit(EXIT_INVALID if problems else 0)
         refs = [lab for lab in CONTROLLERS if lab in labels]
         mine = [lab for lab in labels if lab not in CONTROLLERS]
         parts = []
         for metric in metrics:
-            rows = layout(episodes, labels, scenarios, metric, not no_published)
+            rows = layout(episodes, labels, scenarios, metric, with_published, planned)
             if to == "latex":
-                parts.append(latex(rows, scenarios, metric))
+                parts.append(latex(rows, scenarios, metric, instances=instances))
             else:
                 comps = [c for p in mine for c in compare(episodes, p, refs, scenarios, metric)]
-                parts.append(markdown(rows, scenarios, metric, comps))
+                parts.append(markdown(rows, scenarios, metric, comps, instances=instances))
     except MissingExtra as exc:
         fail(str(exc), EXIT_USAGE)
     text = "\n".join(parts)
     if output is None:
         click.echo(text, nl=False)
-        return
-    try:
-        output.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        fail(f"cannot write {output}: {exc.strerror or exc}")
-    stdout.print(f"{to} written to {output}")
+    else:
+        try:
+            output.write_text(text, encoding="utf-8")
+        except OSError as exc:
+            fail(f"cannot write {output}: {exc.strerror or exc}")
+        stdout.print(f"{to} written to {output}")
+    if problems:  # F-EXIT-CODES: rendered on request, still not a complete result
+        raise SystemExit(EXIT_INVALID)

@@ -186,6 +186,9 @@ METRICS = tuple(key for key, _, _ in RUN_ROWS)
 @click.option("--repeat", "repeats", type=click.IntRange(0, 50), default=1, show_default=True,
               help="Episodes per scenario each user policy runs twice to detect nondeterminism.")
 @click.option("--no-published", is_flag=True, help="Leave out the paper's published MARL rows.")
+@click.option("--allow-incomplete", is_flag=True,
+              help="Render rows with errors or missing episodes, marked ‡ with their n of N (F-POLICY-COVERAGE); "
+                   "without it they are refused. Either way such rows make the exit status 1.")
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write a results bundle (written as episodes end).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
@@ -196,8 +199,8 @@ METRICS = tuple(key for key, _, _ in RUN_ROWS)
 def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
              versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
              indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
-             timeout: float, load_timeout: float, repeats: int, no_published: bool, out_path: Path | None, fmt: str,
-             paper: bool,
+             timeout: float, load_timeout: float, repeats: int, no_published: bool, allow_incomplete: bool,
+             out_path: Path | None, fmt: str, paper: bool,
              out_dir: Path, campaign: ExecutorSpec) -> None:
     """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
     (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
@@ -224,8 +227,8 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
         from agspec.cli.evaluate_view import DIAGNOSTICS
 
         metrics = tuple(dict.fromkeys((*metrics, *DIAGNOSTICS)))
-    plan.render(metrics, fmt, with_published=not no_published)
-    if plan.failed:
+    incomplete = plan.render(metrics, fmt, with_published=not no_published, allow_incomplete=allow_incomplete)
+    if plan.failed or incomplete:  # F-EXIT-CODES: errors, missing episodes or nondeterminism
         raise SystemExit(EXIT_INVALID)
 
 
