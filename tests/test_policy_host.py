@@ -148,3 +148,23 @@ def test_policy_output_on_stdout_never_reaches_the_json_output(tmp_path, monkeyp
     assert r.returncode == 0, r.stderr
     json.loads(r.stdout)
     assert "hello from the policy module" in r.stderr and "factory says hi" in r.stderr
+
+
+def test_the_host_checks_catch_a_worker_that_reuses_a_timed_out_host(plan, clean_metrics, monkeypatch):
+    """The class check proves itself: a worker that keeps a host after a timeout (the defect of an
+    in-process alarm: the interrupted process serves the next episode) fails it."""
+    from agspec.policy import host as host_module
+
+    monkeypatch.setattr(host_module.PolicyHost, "kill", lambda self: None)
+    monkeypatch.setattr(host_module.PolicyHosts, "run", lambda self, job: self.hosts.setdefault(
+        job.policy.target, host_module.PolicyHost()).run(job))
+    try:
+        with pytest.raises(AssertionError):
+            test_every_phase_and_failure_costs_one_episode(plan, clean_metrics, "factory", "hang", {}, 1.0, 1.5,
+                                                           "timeout")
+    finally:
+        for pid in _pids(Path(json.loads(os.environ["AGSPEC_FAKE_PLAN"])["dir"]), "imports"):
+            try:
+                os.killpg(pid, 9)
+            except ProcessLookupError:
+                pass

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import re
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -222,3 +223,23 @@ def test_one_ok_episode_of_ten_is_never_zero_plus_minus_zero(tmp_path):
         mine = table_lines(shown.stdout, "mine")
         assert shown.exit_code == 1 and mine and not any("±" in line or r"\pm" in line for line in mine)
         assert all("(1 of 10)" in line for line in mine) and "10 of 50 final-test instances" in shown.stdout
+
+
+@pytest.mark.parametrize("mutant", ["hides_incomplete", "plus_minus_zero"])
+def test_the_checks_catch_a_renderer_that_misleads(monkeypatch, tmp_path_factory, mutant):
+    """The generator's checks prove themselves: a renderer that takes every row as complete, or that
+    prints "± 0" over one episode, fails them."""
+    from agspec.policy import coverage as coverage_module
+    from agspec.policy import stats
+
+    if mutant == "hides_incomplete":
+        monkeypatch.setattr(coverage_module.Coverage, "complete", property(lambda self: True))
+    else:
+        original = stats.summary_cell
+        monkeypatch.setattr("agspec.policy.tables.summary_cell", lambda *a: {
+            **original(*a), "half_width": original(*a)["half_width"] or 0.0})
+    with pytest.raises(AssertionError):
+        if mutant == "hides_incomplete":
+            test_every_table_renderer_states_n_and_refuses_incomplete_rows(tmp_path_factory)
+        else:
+            test_one_ok_episode_of_ten_is_never_zero_plus_minus_zero(Path(tempfile.mkdtemp()))

@@ -201,3 +201,13 @@ def test_supersuit_vector_env_cycles_without_options():
         _, _, _, _, _ = vec.step([0] * vec.num_envs)
         seen.append(base.position)
     assert seen == [0, 1, 2, 3, 4, 0, 1, 2, 3, 4]
+
+
+def test_the_cycle_check_catches_an_env_stuck_on_one_instance(monkeypatch):
+    """The generator above proves itself: an environment whose resets never move (the defect of a
+    seed-only reset) fails it."""
+    from agspec.marl.parallel import Curriculum
+
+    monkeypatch.setattr(Curriculum, "position", lambda self, steps: 0)
+    with pytest.raises(AssertionError):
+        test_any_reset_sequence_plays_the_counted_instance()
