@@ -56,7 +56,7 @@ _COMMON: dict[str, Any] = {
     # T-COPIES: environment copies stepped together; the original stepped one (RES-ONE-COPY)
     "rollout": {"envs": 1},
     # execution choices that never change a result on CPU (T-COPIES: sync or async vector env)
-    "runtime": {"device": "cpu", "vector": "auto"},
+    "runtime": {"device": "cpu", "vector": "auto", "threads": None},
 }
 
 # "Execution network" IPPO/MAPPO: the shared actor (T-ACTOR)
@@ -202,6 +202,10 @@ def check(config: Mapping[str, Any]) -> None:
     if per_block % envs:
         raise ConfigError(f"each realization block ({per_block} steps) must split evenly over rollout.envs = {envs} "
                           "copies (T-COPIES)")
+    for key in ("record.every_steps", "checkpoint.every_steps"):
+        section, name = key.split(".")
+        if config[section][name] is not None and config[section][name] % envs:
+            raise ConfigError(f"{key} = {config[section][name]} must be a multiple of rollout.envs = {envs} (T-COPIES)")
     if config["algorithm"] in ("ippo", "mappo"):
         for key in ("ppo.steps_per_update", "ppo.epochs", "ppo.minibatch"):
             _positive_int(config, key)
@@ -213,6 +217,9 @@ def check(config: Mapping[str, Any]) -> None:
             _positive_int(config, key)
     if config["runtime"]["vector"] not in ("auto", "sync", "async"):
         raise ConfigError(f"runtime.vector must be auto, sync or async, got {config['runtime']['vector']!r}")
+    threads = config["runtime"]["threads"]
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise ConfigError(f"runtime.threads must be a positive integer or null, got {threads!r}")
     if not isinstance(config["runtime"]["device"], str):
         raise ConfigError("runtime.device must be a string such as cpu or cuda")
     for index in config["validation"]["indices"]:
