@@ -113,7 +113,7 @@ ALGORITHM_TABLE: dict[str, dict[str, Any]] = {
         "epsilon": {"start": 1.0, "end": 0.05, "decay_fraction": 0.75},
         # "Replay / target" (T-QMIX-UPDATE)
         "replay": {"capacity": 50_000, "batch": 64, "train_every": 4, "target_sync_every": 1600,
-                   "td_target": "single-network", "loss": "mse", "max_grad_norm": 10.0},  # RES-QMIX-GRAD-CLIP
+                   "td_target": "single-network", "loss": "mse", "max_grad_norm": 10.0},  # RES-ADAMW-DEFAULTS
         # "Warm-up": 3,200 transitions in the replay before the first update
         "warmup": {"replay_transitions": 3200},
         "reward": {"support_credit": "mean"},
@@ -174,6 +174,22 @@ def apply_overrides(config: dict[str, Any], overrides: Mapping[str, Any]) -> dic
                 node[part] = _merge(node[part], value) if isinstance(value, Mapping) and isinstance(node[part], dict) \
                     else copy.deepcopy(value)
             node = node[part]
+    return out
+
+
+def flatten_settings(data: Mapping[str, Any], defaults: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A settings file's mapping (sections or dotted keys) as dotted keys down to the defaults' leaves,
+    so that :func:`apply_overrides` checks every key of the file."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        dotted = f"{prefix}{key}"
+        node: Any = defaults
+        for part in dotted.split("."):
+            node = node.get(part) if isinstance(node, Mapping) else None
+        if isinstance(value, Mapping) and isinstance(node, Mapping):
+            out.update(flatten_settings(value, defaults, dotted + "."))
+        else:
+            out[dotted] = value
     return out
 
 
@@ -246,5 +262,7 @@ def resolve(algorithm: str, scenario: str, seed: int, family: str | None,
 
 
 def digest(config: Mapping[str, Any]) -> str:
-    """SHA-256 of the configuration's canonical JSON (sorted keys, compact)."""
-    return hashlib.sha256(json.dumps(config, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+    """SHA-256 of the configuration's canonical JSON (sorted keys, compact), without ``runtime``: how a
+    run executes (device, threads, vector mode) is recorded in run.json, not part of what it is (T-CONFIG)."""
+    identity = {k: v for k, v in config.items() if k != "runtime"}
+    return hashlib.sha256(json.dumps(identity, sort_keys=True, separators=(",", ":")).encode()).hexdigest()

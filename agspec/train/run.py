@@ -106,7 +106,7 @@ class Run:
                "seed": c["seed"], "config_sha256": self.digest, "budget": c["budget"]["env_steps"],
                "steps": self.position["steps"], "updates": self.position["updates"],
                "realizations": [curriculum.describe(b, i) for b, i in zip(self.blocks, self.instances)],
-               "device": str(self.device), "versions": versions(), "resumed": self.position["resumed"],
+               "device": str(self.device), "runtime": dict(c["runtime"]), "versions": versions(), "resumed": self.position["resumed"],
                "wall_time_s": self.elapsed(), "validation": self.position["validation"], "policy": None}
         if status == "complete":
             out["policy"] = {"path": rundir.POLICY, "sha256": rundir.sha256_file(self.out / rundir.POLICY)}
@@ -204,7 +204,7 @@ class Run:
         return all(ep["length"] == 0 for ep in episodes.open)
 
     def train(self, resume: bool) -> dict[str, Any]:
-        c, pos = self.config, self.position
+        c = self.config
         if resume:
             self.restore()
         else:
@@ -215,6 +215,7 @@ class Run:
             self.validate("initial")
             self.checkpoint()
         self.write_summary("running")
+        pos = self.position
         every_ckpt = c["checkpoint"]["every_steps"]
         vec = make_vector(self.instances[pos["block"] if pos["block"] < len(self.blocks) else 0], c["rollout"]["envs"],
                           c["reward"]["support_credit"], c["algorithm"] != "ippo", vector_mode(c))
