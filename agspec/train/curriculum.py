@@ -44,21 +44,25 @@ def plan(config: Mapping[str, Any]) -> list[Block]:
     return out
 
 
-def training_instance(config: Mapping[str, Any], block: Block) -> dict[str, Any]:
-    """The block's instance IR: the scenario realized under the block's seeds (S-REALIZATION)."""
+def training_instances(config: Mapping[str, Any], blocks: list[Block]) -> list[dict[str, Any]]:
+    """Each block's instance IR: the scenario realized under the block's seeds (S-REALIZATION)."""
     from agspec.catalogue import load_scenario_bundle
     from agspec.ir.instance import make_instance
 
     scenario, recipes, profile = load_scenario_bundle(config["scenario"])
-    return make_instance(scenario, recipes, profile, generation_seed=block.generation_seed,
-                         execution_seed=block.execution_seed)
+    return [make_instance(scenario, recipes, profile, generation_seed=b.generation_seed,
+                          execution_seed=b.execution_seed) for b in blocks]
 
 
-def suite_instance(config: Mapping[str, Any], index: int) -> dict[str, Any]:
-    """A suite instance of the run's scenario (validation 200–204, final test 1000–1049)."""
-    from agspec.catalogue import load_instance
+def suite_instances(config: Mapping[str, Any], indices: list[int]) -> list[dict[str, Any]]:
+    """Suite instances of the run's scenario (validation 200–204, final test 1000–1049)."""
+    from agspec.catalogue import load_scenario_bundle
+    from agspec.ir.instance import make_instance
 
-    return load_instance(config["scenario"], index)
+    if not indices:
+        return []
+    scenario, recipes, profile = load_scenario_bundle(config["scenario"])
+    return [make_instance(scenario, recipes, profile, index=i) for i in indices]
 
 
 def describe(block: Block, instance: Mapping[str, Any]) -> dict[str, Any]:

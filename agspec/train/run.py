@@ -81,7 +81,8 @@ class Run:
         self.config, self.out, self.notify = config, out, progress or (lambda _row: None)
         self.digest = cfg.digest(config)
         self.blocks = curriculum.plan(config)
-        self.instances = [curriculum.training_instance(config, b) for b in self.blocks]
+        self.instances = curriculum.training_instances(config, self.blocks)
+        self.validation = curriculum.suite_instances(config, list(config["validation"]["indices"]))
         self.record = Record(out / rundir.RECORD)
         self.device = _device(config)
         n_agents, state_dim = _dims(self.instances[0])
@@ -165,8 +166,8 @@ class Run:
 
         spec = PolicySpec("checkpoint", str(self.out / rundir.POLICY), "validation")
         delivered, completion = [], []
-        for index in indices:
-            metrics = run_episode(curriculum.suite_instance(self.config, index), spec).metrics
+        for instance in self.validation:
+            metrics = run_episode(instance, spec).metrics
             delivered.append(int(metrics["delivered"]))
             completion.append(float(metrics["completion_rate"]))
         row = {"kind": "validation", "phase": phase, "steps": self.position["steps"], "indices": list(indices),
