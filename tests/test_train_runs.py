@@ -184,6 +184,9 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     assert ident["training"] == {"algorithm": "ippo", "scenario": SCENARIO, "seed": 0, "steps": 10,
                                  "config_sha256": summary["config_sha256"]}
     assert [e["status"] for e in data["episodes"] if e["controller"] == ident["label"]] == ["ok"]
+    res = runner.invoke(cli, ["report", str(bundle)])  # T-CHECKPOINT-ROW: one run, one instance
+    assert res.exit_code == 0, res.output
+    assert "| IPPO | flow-easy | 1 | 1 |" in res.output and "21.85 ± 0.46" in res.output
     # a run that is not complete is refused
     (tmp_path / "half").mkdir()
     (tmp_path / "half" / "run.json").write_text(json.dumps({**summary, "status": "running", "policy": None}))
