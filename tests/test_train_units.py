@@ -198,3 +198,26 @@ def test_replay_is_exact_fifo_and_survives_a_checkpoint(tmp_path):  # T-REPLAY
     assert again.position == replay.position and len(again) == 4
     a, b = replay.sample(4, np.random.default_rng(5)), again.sample(4, np.random.default_rng(5))
     assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+@pytest.mark.parametrize("algorithm", ["mappo", "qmix"])
+def test_optimizers_are_adamw_with_the_tables_settings(algorithm):  # T-ADAMW, RES-ADAMW-DEFAULTS
+    config = resolve_config(algorithm, "flow-easy", 0)
+    dev = torch.device("cpu")
+    if algorithm == "qmix":
+        from agspec.train.qmix import QMIXLearner
+
+        learner = QMIXLearner(config, 20, 429, dev, gen(), gen(1), np.random.default_rng(0))
+        opts = {"q": learner.opt}
+        assert sum(p.numel() for g in learner.opt.param_groups for p in g["params"]) == (
+            nets.parameter_count(learner.qnet) + nets.parameter_count(learner.mixer))
+    else:
+        from agspec.train.ppo import PPOLearner
+
+        learner = PPOLearner(config, 20, 429, dev, gen(), gen(1))
+        opts = {"actor": learner.actor_opt, "critic": learner.critic_opt}
+    for role, opt in opts.items():
+        assert type(opt) is torch.optim.AdamW
+        group = opt.param_groups[0]
+        assert (group["lr"], group["eps"], group["weight_decay"], group["betas"]) == (
+            config["lr"][role], 1e-5, 0.01, (0.9, 0.999))

@@ -1,11 +1,11 @@
 """The run directory (spec/16-training.md, T-RUN-DIR): names, the summary file, completeness.
 
-    config.json      the resolved configuration (canonical JSON)
-    run.json         the run summary (schemas/training-run.schema.json), rewritten as the run goes
-    record.jsonl     the training record (schemas/training-record.schema.json), appended as it goes
-    checkpoint.pt    the last resumable state (networks, optimizers, random streams, counters)
-    replay.npz       QMIX only: the replay buffer at that checkpoint
-    policy.pt        the final policy: the network the evaluation runs (its SHA-256 is its identity)
+    CONFIG       the resolved configuration (canonical JSON)
+    SUMMARY      the run summary (schemas/training-run.schema.json), rewritten as the run goes
+    RECORD       the training record (schemas/training-record.schema.json), appended as it goes
+    CHECKPOINT   the last resumable state (networks, optimizers, random streams, counters)
+    REPLAY       QMIX only: the replay buffer at that checkpoint
+    POLICY       the final policy: the network the evaluation runs (its SHA-256 is its identity)
 
 No torch here: a campaign inspects run directories without the extra.
 """
