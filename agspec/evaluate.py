@@ -151,6 +151,10 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
     return (mean, 1.96 * statistics.stdev(values) / math.sqrt(len(values)))
 
 
+# F-POLICY-HOST: policies whose code runs in the worker's Python (user factories, trained checkpoints)
+HOSTED_KINDS = ("python", "checkpoint")
+
+
 @dataclass(frozen=True)
 class Job:
     """One episode of a campaign: which policy on which instance, and how (F-POLICY-RUNNER)."""
@@ -189,7 +193,7 @@ def run_job(job: Job, hosts: PolicyHosts | None = None,
     With ``hosts`` (a campaign worker's), a Python policy's episode runs in that worker's policy host
     (F-POLICY-HOST); otherwise here, its phases bounded by ``guard`` or the in-process alarm.
     """
-    if hosts is not None and job.policy.kind == "python":
+    if hosts is not None and job.policy.kind in HOSTED_KINDS:
         return hosts.run(job)
     started = time.perf_counter()
     try:

@@ -30,6 +30,7 @@ COMMANDS = {
     "trace": "agspec.cli.conform_cmds:trace",
     "render": "agspec.cli.render_cmds:render",
     "report": "agspec.cli.report_cmds:report",
+    "train": "agspec.cli.train_cmds:train",
 }
 
 

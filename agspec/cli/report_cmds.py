@@ -1,4 +1,5 @@
-"""`agspec report`: a results bundle as the paper's table (Markdown, LaTeX) or figure (F-POLICY-TABLE/FIGURE)."""
+"""`agspec report`: a results bundle as the paper's table (Markdown, LaTeX) or figure (F-POLICY-TABLE/FIGURE);
+training run directories as the paper's training curves (T-RECORD)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ FORMATS = ("markdown", "latex", "svg", "png", "pdf")
 
 
 @click.command("report")
-@click.argument("bundles", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("bundles", nargs=-1, required=True, type=click.Path(path_type=Path), metavar="BUNDLE…|RUN_DIR…")
 @click.option("--to", "to", type=click.Choice(FORMATS), default="markdown", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Output file (default: stdout for markdown/latex, BUNDLE.<format> for figures).")
@@ -25,11 +26,15 @@ FORMATS = ("markdown", "latex", "svg", "png", "pdf")
                    "without it they are refused. Either way such rows make the exit status 1.")
 def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys: tuple[str, ...],
            no_published: bool, allow_incomplete: bool) -> None:
-    """Write results bundles (agspec evaluate --out) as the paper's table or family figure.
+    """Write results bundles (agspec evaluate --out) as the paper's table or family figure, or training run
+    directories (agspec train --out) as training curves (--to svg|png|pdf).
 
     Every table and figure states n per row and the instance set ("10 of 50 final-test instances");
     a row with errors or missing episodes is refused unless --allow-incomplete, and exits 1.
     """
+    if any(p.is_dir() for p in bundles):
+        _training_curves(bundles, to, output)
+        return
     from agspec.cli.evaluate_view import refuse_incomplete
     from agspec.controllers import CONTROLLERS
     from agspec.policy.bundle import BundleError, combine, read_bundle
@@ -77,6 +82,7 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
             else:
                 comps = [c for p in mine for c in compare(episodes, p, refs, scenarios, metric)]
                 parts.append(markdown(rows, scenarios, metric, comps, instances=instances))
+            parts.append(_checkpoint_rows(data, metric, to))
     except MissingExtra as exc:
         fail(str(exc), EXIT_USAGE)
     text = "\n".join(parts)
@@ -90,3 +96,35 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
         stdout.print(f"{to} written to {output}")
     if problems:  # F-EXIT-CODES: rendered on request, still not a complete result
         raise SystemExit(EXIT_INVALID)
+
+
+def _checkpoint_rows(data: dict, metric: str, to: str) -> str:
+    """T-CHECKPOINT-ROW: trained checkpoints of one method and scenario as the paper's held-out row."""
+    from agspec.train import heldout
+
+    table = heldout.rows(data["policies"], data["episodes"], metric)
+    return heldout.latex(table) if to == "latex" else heldout.markdown(table)
+
+
+def _training_curves(dirs: tuple[Path, ...], to: str, output: Path | None) -> None:
+    """Training run directories -> the paper's training curves (median and IQR over seeds)."""
+    from agspec.policy.stats import MissingExtra
+    from agspec.train.curves import draw, load_runs
+    from agspec.train.rundir import RunDirError
+
+    if not all(p.is_dir() for p in dirs):
+        fail("give either results bundles or training run directories, not both")
+    if to not in ("svg", "png", "pdf"):
+        fail(f"training run directories are drawn as curves: use --to svg, png or pdf (not {to})")
+    try:
+        runs = load_runs(dirs)
+    except RunDirError as exc:
+        fail(str(exc))
+    target = output or Path(f"{dirs[0].resolve().name}-curves.{to}")
+    try:
+        draw(runs, target)
+    except MissingExtra as exc:
+        fail(str(exc), EXIT_USAGE)
+    except OSError as exc:
+        fail(f"cannot write {target}: {exc.strerror or exc}")
+    stdout.print(f"training curves of {len(runs)} run(s) written to {target}")

@@ -226,7 +226,9 @@ def validate_message(name: str, message: Any) -> list[str]:
     return [str(p) for p in validate(f"protocol/{name}", message, limit=3)]
 
 
-SESSIONS = {"controller": ControllerSession, "python": PettingZooSession, "command": ProcessSession}
+# F-POLICY-CHECKPOINT: a trained network plays through the PettingZoo environment like any factory
+SESSIONS = {"controller": ControllerSession, "python": PettingZooSession, "checkpoint": PettingZooSession,
+            "command": ProcessSession}
 
 
 def open_session(spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, **options: Any):
