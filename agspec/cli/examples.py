@@ -37,7 +37,8 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "trace validate": ("trace validate flow.jsonl --format json",),
     "train": ("train --algorithm mappo --scenario coalition-medium --seed 0 --out runs/mappo-coalition-medium-s0",
               "train --algorithm ippo --scenario flow-easy --seed 1 --steps 16000 --set ppo.clip=0.2 --out runs/ippo-s1",
-              "train --algorithm mappo --scenario coalition-medium --seed 0 --out runs/mappo-coalition-medium-s0 --resume"),
+              "train --algorithm mappo --scenario coalition-medium --seed 0 --out runs/mappo-coalition-medium-s0 --resume",
+              "train --campaign paper --out campaign/ --executor ray --address auto --gpus-per-run 0.5"),
     "render": ("render flow.jsonl -o replay.html",
                "render --impl reference --scenario coalition-medium --ticks 60 -o replay.html"),
 }

@@ -12,6 +12,7 @@ from typing import Any, Mapping
 import click
 
 from agspec.cli.common import EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.executor_opts import JOBS_HELP, executor_options
 
 ALGORITHMS = ("ippo", "mappo", "qmix")
 IDENTITY = ("algorithm", "scenario", "seed")
@@ -37,11 +38,18 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 
 
 @click.command("train")
-@click.option("--algorithm", type=click.Choice(ALGORITHMS), required=True, help="The MARL reference to train.")
-@click.option("--scenario", required=True, metavar="NAME|FILE.ag", help="Official scenario name or a scenario file.")
-@click.option("--seed", type=SEED_RANGE, required=True, help="Algorithm seed (the paper used 0-9).")
+@click.option("--algorithm", type=click.Choice(ALGORITHMS), default=None, help="The MARL reference to train.")
+@click.option("--scenario", default=None, metavar="NAME|FILE.ag", help="Official scenario name or a scenario file.")
+@click.option("--seed", type=SEED_RANGE, default=None, help="Algorithm seed (the paper used 0-9).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="Run directory (new or empty; with --resume, the cut run's).")
+              help="Run directory (new or empty; with --resume, the cut run's); with --campaign, the campaign's.")
+@click.option("--campaign", "campaign_plan", default=None, metavar="paper|PLAN.json|PLAN.yaml",
+              help="Run a campaign instead of one run: the paper's 270 runs, or a plan of algorithms x scenarios "
+                   "x seeds (schemas/training-plan.schema.json); resumable, each run evaluated on final-test.")
+@click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help="With --campaign: " + JOBS_HELP)
+@click.option("--gpus-per-run", type=click.FloatRange(0, 64), default=0.0, show_default=True,
+              help="With --campaign --executor ray: GPUs each run holds (0.5 shares one GPU by two runs); "
+                   "runs then train on cuda.")
 @click.option("--steps", type=click.IntRange(1), default=None,
               help="Training budget in environment steps (default the paper's 1,536,000; divisible by 5).")
 @click.option("--envs", type=click.IntRange(1), default=None, help="Environment copies stepped together (default 1).")
@@ -55,9 +63,11 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 @click.option("--print-config", is_flag=True, help="Print the resolved configuration and exit without training.")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True,
               help="Final summary as a table or run.json's JSON.")
-def train(algorithm: str, scenario: str, seed: int, out: Path, steps: int | None, envs: int | None,
-          device: str | None, threads: int | None, config_file: Path | None, sets: tuple[str, ...], resume: bool,
-          print_config: bool, fmt: str) -> None:
+@executor_options
+def train(algorithm: str | None, scenario: str | None, seed: int | None, out: Path, campaign_plan: str | None,
+          jobs: int | None, gpus_per_run: float, steps: int | None, envs: int | None, device: str | None,
+          threads: int | None, config_file: Path | None, sets: tuple[str, ...], resume: bool, print_config: bool,
+          fmt: str, campaign: Any) -> None:
     """Train IPPO, MAPPO or QMIX on one scenario with the paper's configuration (tab:marlconfig).
 
     Writes the resolved configuration, the training record (JSON Lines, as it goes), checkpoints and
@@ -67,6 +77,23 @@ def train(algorithm: str, scenario: str, seed: int, out: Path, steps: int | None
     from agspec.train.api import MissingExtra, resolve_config
     from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override
 
+    if campaign_plan is not None:
+        from agspec.cli.train_campaign import run_plan
+
+        if algorithm or scenario or seed is not None or config_file or resume or print_config:
+            fail("--campaign takes the runs from its plan: drop --algorithm, --scenario, --seed, --config, "
+                 "--resume and --print-config (a campaign resumes by itself)")
+        settings = dict(parse_override(text) for text in sets)
+        for key, value in (("budget.env_steps", steps), ("rollout.envs", envs), ("runtime.device", device),
+                           ("runtime.threads", threads)):
+            if value is not None:
+                settings[key] = value
+        run_plan(campaign_plan, out, settings, campaign, gpus_per_run, fmt)
+        return
+    missing = [f"--{name}" for name, value in (("algorithm", algorithm), ("scenario", scenario), ("seed", seed))
+               if value is None]
+    if missing:
+        fail(f"missing {', '.join(missing)} (or give --campaign paper|PLAN)")
     try:
         overrides: dict[str, Any] = {}
         if config_file is not None:
