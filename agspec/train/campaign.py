@@ -29,7 +29,7 @@ PLAN_SCHEMA = "agspec-training-plan/1"
 RECORD_FILE, PLAN_FILE, RUNS_DIR, EVALUATION_FILE = "campaign.jsonl", "plan.json", "runs", "evaluation.json"
 # what every campaign run fixes unless the plan says otherwise: one intra-op thread per run, so a run's
 # floating-point sums do not depend on the worker's core count (CAMP-IDENTICAL)
-CAMPAIGN_DEFAULTS: Mapping[str, Any] = {"runtime.threads": 1}
+CAMPAIGN_DEFAULTS: Mapping[str, Any] = {"runtime.threads": 1}  # RES-CAMPAIGN-THREADS
 EVALUATION_METRICS = ("delivered", "completion_rate")
 
 
