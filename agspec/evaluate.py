@@ -22,6 +22,7 @@ from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
 from agspec.ir.fingerprint import fingerprint
 from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError
+from agspec.policy.host import DEFAULT_LOAD_TIMEOUT, PolicyHosts
 from agspec.policy.sessions import open_session
 
 
@@ -77,19 +78,24 @@ def run_episode(
     on_tick: Callable[[int, int], None] | None = None,
     strict: bool = False,
     timeout: float | None = None,
+    load_timeout: float | None = None,
+    guard: Callable[[str, str, int | None], Any] | None = None,
     scenario: str | None = None,
     index: int | None = None,
 ) -> EpisodeResult:
-    """Run one episode of a reference controller or a user policy (F-POLICY-RUNNER).
+    """Run one episode of a reference controller or a user policy (F-POLICY-RUNNER), in this process.
 
     ``trace`` is an optional TraceWriter; ``horizon`` may shorten the run.  A misbehaving policy
     raises :class:`~agspec.policy.contract.PolicyError` (F-POLICY-ERRORS); a masked action is
-    executed as idle and counted, or raises under ``strict`` (F-POLICY-ILLEGAL).
+    executed as idle and counted, or raises under ``strict`` (F-POLICY-ILLEGAL).  ``timeout``
+    bounds each decision, ``load_timeout`` the loading of a Python policy; ``guard`` replaces the
+    in-process alarm that enforces both (F-POLICY-HOST).
     """
     spec = as_policy(controller)
     # F-POLICY-EVALUATION: the instance's own execution seed (S-SEEDS) and the scenario horizon
     exec_seed = seed if seed is not None else instance.get("seeds", {}).get("execution")
-    session = open_session(spec, instance, exec_seed, timeout=timeout, scenario=scenario, index=index)
+    session = open_session(spec, instance, exec_seed, timeout=timeout, load_timeout=load_timeout, guard=guard,
+                           scenario=scenario, index=index)
     try:
         sim = session.sim
         agents = sim.agents()
@@ -146,6 +152,10 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
     return (mean, 1.96 * statistics.stdev(values) / math.sqrt(len(values)))
 
 
+# F-POLICY-HOST: policies whose code runs in the worker's Python (user factories, trained checkpoints)
+HOSTED_KINDS = ("python", "checkpoint")
+
+
 @dataclass(frozen=True)
 class Job:
     """One episode of a campaign: which policy on which instance, and how (F-POLICY-RUNNER)."""
@@ -155,32 +165,66 @@ class Job:
     policy: PolicySpec
     instance: Mapping[str, Any]
     strict: bool = False
-    timeout: float | None = None
+    timeout: float | None = None  # seconds per decision (F-POLICY-ERRORS)
     repeat: bool = False  # a second run of the same episode, for F-POLICY-DETERMINISM
+    load_timeout: float | None = None  # seconds to load a Python policy (None: the default, F-POLICY-HOST)
 
 
-def run_job(job: Job) -> dict[str, Any]:
-    """One episode as a record of the results bundle (F-POLICY-BUNDLE); a misbehaving policy gives an
-    ``error`` record instead of stopping the campaign (F-POLICY-ERRORS)."""
-    started = time.perf_counter()
+def job_record(job: Job, started: float, result: EpisodeResult | None = None,
+               error: PolicyError | None = None) -> dict[str, Any]:
+    """The results-bundle record of one episode (F-POLICY-BUNDLE): its result or its error."""
     record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index}
-    try:
-        result = run_episode(job.instance, job.policy, strict=job.strict, timeout=job.timeout,
-                             scenario=job.scenario, index=job.index)
+    if result is not None:
         record.update(status="ok", metrics=result.metrics, illegal_actions=result.illegal_actions,
                       actions_sha256=result.actions_digest, error=None)
-    except (PolicyError, PolicySpecError) as exc:
-        error = exc.record() if isinstance(exc, PolicyError) else PolicyError("setup", str(exc)).record()
-        record.update(status="error", metrics=None, illegal_actions=None, actions_sha256=None, error=error)
+    else:
+        record.update(status="error", metrics=None, illegal_actions=None, actions_sha256=None,
+                      error=(error or PolicyError("worker", "no result")).record())
     record["wall_time"] = round(time.perf_counter() - started, 6)
     if job.repeat:
         record["repeat"] = True
     return record
 
 
-def _run_slot(instances: list[Mapping[str, Any]], item: tuple[Job, int]) -> dict[str, Any]:
+def run_job(job: Job, hosts: PolicyHosts | None = None,
+            guard: Callable[[str, str, int | None], Any] | None = None) -> dict[str, Any]:
+    """One episode as a record of the results bundle (F-POLICY-BUNDLE); a misbehaving policy gives an
+    ``error`` record instead of stopping the campaign (F-POLICY-ERRORS).
+
+    With ``hosts`` (a campaign worker's), a Python policy's episode runs in that worker's policy host
+    (F-POLICY-HOST); otherwise here, its phases bounded by ``guard`` or the in-process alarm.
+    """
+    if hosts is not None and job.policy.kind in HOSTED_KINDS:
+        return hosts.run(job)
+    started = time.perf_counter()
+    try:
+        result = run_episode(job.instance, job.policy, strict=job.strict, timeout=job.timeout,
+                             load_timeout=job.load_timeout if job.load_timeout is not None else DEFAULT_LOAD_TIMEOUT,
+                             guard=guard, scenario=job.scenario, index=job.index)
+    except (PolicyError, PolicySpecError) as exc:
+        return job_record(job, started, error=exc if isinstance(exc, PolicyError) else PolicyError("setup", str(exc)))
+    return job_record(job, started, result)
+
+
+@dataclass
+class EpisodeWorker:
+    """What one campaign worker holds: the shipped instances and its policy hosts (F-POLICY-HOST)."""
+
+    instances: list[Mapping[str, Any]]
+    hosts: PolicyHosts
+
+
+def _worker_open(instances: list[Mapping[str, Any]]) -> EpisodeWorker:
+    return EpisodeWorker(instances, PolicyHosts())
+
+
+def _worker_close(worker: EpisodeWorker) -> None:
+    worker.hosts.close()
+
+
+def _run_slot(worker: EpisodeWorker, item: tuple[Job, int]) -> dict[str, Any]:
     job, slot = item
-    return run_job(replace(job, instance=instances[slot]))
+    return run_job(replace(job, instance=worker.instances[slot]), worker.hosts)
 
 
 def map_episodes(jobs: list[Job], workers: int = 1, executor: ExecutorSpec | None = None) -> Iterator[dict[str, Any]]:
@@ -189,7 +233,8 @@ def map_episodes(jobs: list[Job], workers: int = 1, executor: ExecutorSpec | Non
     ``executor`` says where they run (spec chapter 14; default ``workers`` local processes).  Each
     distinct instance is shipped once however many policies run it (CAMP-SHIP-ONCE).  An episode
     whose worker died past the retries is an ``error`` record with code ``worker`` (CAMP-FAULTS).
-    Leaving the iterator early stops the workers (CAMP-CANCEL).
+    Leaving the iterator early stops the workers (CAMP-CANCEL).  Each worker runs Python policies in
+    its policy hosts, imported once per host and replaced after a timeout (F-POLICY-HOST).
     """
     instances: list[Mapping[str, Any]] = []
     slots: dict[tuple[str, int], int] = {}
@@ -200,19 +245,13 @@ def map_episodes(jobs: list[Job], workers: int = 1, executor: ExecutorSpec | Non
             slot = slots[(job.scenario, job.index)] = len(instances)
             instances.append(job.instance)
         items.append((replace(job, instance=None), slot))
-    for i, outcome in run_ordered(Task(_run_slot, instances), items, executor or ExecutorSpec(jobs=workers)):
+    task = Task(_run_slot, instances, init=_worker_open, close=_worker_close)
+    for i, outcome in run_ordered(task, items, executor or ExecutorSpec(jobs=workers)):
         if isinstance(outcome, Done):
             yield outcome.value
             continue
-        job = jobs[i]
-        record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index,
-                                  "status": "error", "metrics": None, "illegal_actions": None,
-                                  "actions_sha256": None,
-                                  "error": PolicyError("worker", f"the episode was not run: {outcome.message()}").record(),
-                                  "wall_time": 0.0}
-        if job.repeat:
-            record["repeat"] = True
-        yield record
+        error = PolicyError("worker", f"the episode was not run: {outcome.message()}")
+        yield {**job_record(jobs[i], time.perf_counter(), error=error), "wall_time": 0.0}
 
 
 def evaluate(jobs: Iterable[tuple[str, str | PolicySpec, int, Mapping[str, Any]] | Job], workers: int = 1,
@@ -239,7 +278,9 @@ def summarize(runs: list[dict[str, Any]], keys: Iterable[str] = ("delivered",)) 
         for key in keys:
             values = [r["metrics"][key] for r in group if r.get("metrics") and r["metrics"].get(key) is not None]
             mean, half = mean_ci([float(v) for v in values])
-            entry[key] = {"mean": mean, "half_width": half, "n": len(values)}
+            # JSON has no NaN; one value has no interval (F-POLICY-COVERAGE: never "± 0" over n = 1)
+            entry[key] = {"mean": mean if math.isfinite(mean) else None,
+                          "half_width": half if len(values) >= 2 and math.isfinite(half) else None, "n": len(values)}
         out.append(entry)
     return out
 

@@ -16,7 +16,7 @@ STEP = re.compile(r"#\s*step\s+(\d+):\s*(.*)$")
 ID_IN_TEXT = r"[A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+"
 ISSUE = re.compile(r"\bissues?\s+#?\d+|\bissue\s+#\d+|#\d{2,}\b", re.IGNORECASE)
 FILE_REF = re.compile(r"(?<![\w./-])((?:[\w.-]+/)*[\w-]+\.(?:md|py|json|yaml|yml|ag|lark|toml))(?![\w/])")
-NORMATIVE = ("R-", "INV-", "M-")
+NORMATIVE = ("R-", "INV-", "M-", "T-")
 GUARD_FILES = ("spec_guard.py", "test_spec_guard.py")  # every such ID must be implemented (cited by code) and tested
 
 

@@ -30,7 +30,8 @@ class ExecutorSpec:
     """How a campaign runs (CAMP-EXECUTOR): ``kind`` local or ray; ``jobs`` workers (None: 1 locally,
     every CPU of the Ray cluster); ``address`` of a Ray cluster (None: a local Ray started for the
     run; ``auto``; ``ray://host:port``); ``retries`` per item whose worker dies; ``dispatch_seed``
-    shuffles the dispatch order (the results are identical, CAMP-ORDER); ``runtime_env`` for Ray."""
+    shuffles the dispatch order (the results are identical, CAMP-ORDER); ``runtime_env`` for Ray;
+    ``gpus`` per Ray worker (CAMP-GPU)."""
 
     kind: str = "local"
     jobs: int | None = None
@@ -38,6 +39,7 @@ class ExecutorSpec:
     retries: int = DEFAULT_RETRIES
     dispatch_seed: int | None = None
     runtime_env: dict[str, Any] | None = None
+    gpus: float = 0.0  # with Ray: GPUs each worker holds (a fraction shares one); local workers ignore it
 
 
 @dataclass(frozen=True)

@@ -88,10 +88,19 @@ class RayBackend:
     def __init__(self, task: Task, spec: ExecutorSpec):
         self.started = connect(spec)
         try:
-            # one CPU per actor: more actors than the cluster's CPUs would never be scheduled
-            cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
+            # one CPU per actor (and spec.gpus GPUs, CAMP-GPU): more actors than the cluster holds would
+            # never be scheduled
+            resources = ray.cluster_resources()
+            cpus = max(1, int(resources.get("CPU", 1)))
             self.jobs = min(spec.jobs or cpus, cpus)
-            self.actor_class = ray.remote(num_cpus=1, max_concurrency=2, max_restarts=0)(_Worker)
+            if spec.gpus:
+                fits = int(resources.get("GPU", 0) / spec.gpus + 1e-9)
+                if fits < 1:
+                    raise ExecutorError(f"each worker asks for {spec.gpus:g} GPU but the Ray cluster has "
+                                        f"{resources.get('GPU', 0):g}")
+                self.jobs = min(self.jobs, fits)
+            self.actor_class = ray.remote(num_cpus=1, num_gpus=spec.gpus, max_concurrency=2,
+                                          max_restarts=0)(_Worker)
             # the code travels by reference; the data once through the object store
             self.task = Task(task.fn, None, task.init, task.close)
             self.shared = ray.put(task.shared)

@@ -27,6 +27,21 @@ def emit_json(data: Any) -> None:
     sys.stdout.flush()
 
 
+def print_table(table: Any, console: Console | None = None) -> None:
+    """Print a rich table whole: its cells fold in a terminal; elsewhere (a file, a pipe, CI) it is printed
+    at its natural width, so no cell is ever cut to "…"."""
+    console = console or stdout
+    for column in table.columns:
+        column.overflow = "fold"
+    if table.title:  # a title is wrapped to the table's width: make the table as wide as its title
+        table.min_width = max(table.min_width or 0, Text.from_markup(str(table.title)).cell_len + 4)
+    if console.is_terminal:
+        console.print(table)
+        return
+    width = console.measure(table, options=console.options.update_width(10**5)).maximum
+    Console(file=console.file, width=max(width, console.width), highlight=False).print(table)
+
+
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
     """Print ``error: MESSAGE`` (the message literally: file names and ids may contain brackets) and exit."""
     stderr.print(Text.assemble(("error", "bold red"), ": ", message))

@@ -14,9 +14,10 @@ from typing import Any, Iterable, Sequence
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
+from rich.text import Text
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, print_table, stderr, stdout
 from agspec.controllers import CONTROLLERS
 
 # the mechanism diagnostics the paper reports beside the outcomes (tab:coalcoord-full and siblings)
@@ -76,14 +77,32 @@ def nondeterminism(episodes: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def refuse_incomplete(problems: Sequence[Any], allow: bool, what: str) -> None:
+    """F-POLICY-COVERAGE, RES-INCOMPLETE-REFUSED: name every incomplete row; without ``allow`` refuse to
+    render (exit 1)."""
+    if not problems:
+        return
+    stderr.print(Text.assemble(("incomplete", "bold red"),
+                               f": {len(problems)} row(s) of the {what} have fewer ok episodes than planned:"))
+    for p in problems:
+        stderr.print(Text("  " + p.problem()))
+    if not allow:
+        fail(f"the {what} is not rendered: a mean over the ok episodes would hide the others; re-run the missing "
+             "episodes (agspec evaluate --from BUNDLE --policy ...), or give --allow-incomplete to render them "
+             "marked ‡ with their n of N", EXIT_INVALID)
+
+
 class Campaign:
     """What one `agspec evaluate` invocation runs and shows."""
 
     def __init__(self, specs: list, scenarios: list[str], split: str | None, indices: list[int],
-                 reused: dict[str, Any] | None, strict: bool, timeout: float, repeats: int):
+                 reused: dict[str, Any] | None, strict: bool, timeout: float, repeats: int,
+                 load_timeout: float | None = None):
         self.specs, self.scenarios, self.split, self.indices = specs, scenarios, split, indices
         self.reused, self.strict, self.timeout, self.repeats = reused, strict, timeout, repeats
+        self.load_timeout = load_timeout
         self.episodes: list[dict[str, Any]] = list(reused["episodes"]) if reused else []
+        self.reused_planned = reused["planned"] if reused else {}
         self.findings: list[dict[str, Any]] = list(reused["nondeterminism"]) if reused else []
         self.failed = False
 
@@ -91,7 +110,15 @@ class Campaign:
     def labels(self) -> list[str]:
         seen = [s.label for s in self.specs]
         seen += [ep["controller"] for ep in self.episodes]
+        seen += [label for label, _ in self.reused_planned]  # a policy whose every episode is missing
         return list(dict.fromkeys(seen))
+
+    def planned(self):
+        """F-POLICY-COVERAGE: the episodes the bundles read planned, and those this invocation plans."""
+        from agspec.policy.coverage import merge
+
+        own = {(s.label, name): frozenset(self.indices) for s in self.specs for name in self.scenarios}
+        return merge(self.reused_planned, own)
 
     @property
     def user_labels(self) -> list[str]:
@@ -100,7 +127,8 @@ class Campaign:
     @classmethod
     def plan(cls, *, bundles: Sequence[Path], policies: Sequence[str], names: Sequence[str],
              versions: Sequence[str], controllers: Sequence[str], scenarios: Sequence[str], split: str | None,
-             indices: str | None, strict: bool, timeout: float, repeats: int) -> "Campaign":
+             indices: str | None, strict: bool, timeout: float, repeats: int,
+             load_timeout: float | None = None) -> "Campaign":
         from agspec.catalogue import OFFICIAL_SCENARIOS
         from agspec.policy.bundle import BundleError, combine, read_bundle
         from agspec.policy.contract import PolicySpecError, parse_policy
@@ -126,11 +154,14 @@ class Campaign:
         if scenarios:
             chosen = list(scenarios)
         elif reused and not policies and not controllers:
-            chosen = list(dict.fromkeys(ep["scenario"] for ep in reused["episodes"]))
-            idx = sorted({ep["index"] for ep in reused["episodes"]})
+            # the bundles' planned episodes too: a scenario whose every episode is missing is still shown
+            chosen = list(dict.fromkeys([ep["scenario"] for ep in reused["episodes"]]
+                                        + [s for _, s in reused["planned"]]))
+            idx = sorted({ep["index"] for ep in reused["episodes"]}
+                         | {k for indices in reused["planned"].values() for k in indices})
         else:
             chosen = list(OFFICIAL_SCENARIOS)
-        return cls(specs, chosen, split, idx, reused, strict, timeout, repeats)
+        return cls(specs, chosen, split, idx, reused, strict, timeout, repeats, load_timeout)
 
     # ------------------------------------------------------------------ running
 
@@ -154,9 +185,10 @@ class Campaign:
                                   "execution_seed": inst.get("seeds", {}).get("execution")})
                 for spec in self.specs:
                     if (spec.label, name, k, False) not in have:
-                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout))
+                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, load_timeout=self.load_timeout))
                     if spec.kind != "controller" and n < self.repeats and (spec.label, name, k, True) not in have:
-                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, repeat=True))
+                        todo.append(Job(name, k, spec, inst, self.strict, self.timeout, repeat=True,
+                                        load_timeout=self.load_timeout))
         return todo, instances
 
     def run(self, executor: ExecutorSpec, out: Path | None, show: bool) -> None:
@@ -172,7 +204,9 @@ class Campaign:
             known = {(i["scenario"], i["index"]): i for i in (self.reused or {}).get("instances", [])}
             known.update({(i["scenario"], i["index"]): i for i in instances})
             head = header(policies.values(), known.values(), split=self.split, workers=executor.jobs or 1,
-                          options={"strict": self.strict, "timeout": self.timeout, "repeat": self.repeats})
+                          options={"strict": self.strict, "timeout": self.timeout,
+                                   "load_timeout": self.load_timeout, "repeat": self.repeats},
+                          planned=self.planned())
             try:
                 writer = BundleWriter(out, head)
             except BundleError as exc:
@@ -206,34 +240,55 @@ class Campaign:
 
     # ------------------------------------------------------------------ output
 
-    def render(self, metrics: Sequence[str], fmt: str, with_published: bool = True) -> None:
+    def render(self, metrics: Sequence[str], fmt: str, with_published: bool = True,
+               allow_incomplete: bool = False) -> bool:
+        """Tables (or JSON) of the campaign; refuses incomplete rows without ``allow_incomplete``
+        (F-POLICY-COVERAGE).  Returns whether any shown row is incomplete."""
         from agspec.evaluate import summarize
         from agspec.policy import published
+        from agspec.policy.coverage import coverage, describe_sets, final_test_only, incomplete
         from agspec.policy.stats import MissingExtra, compare
-        from agspec.policy.tables import COMPARISON_HEADER, comparison_cells, fmt_cell, layout, row_name
+        from agspec.policy.tables import COMPARISON_HEADER, comparison_cells, fmt_cell, layout, notes, row_n, row_name
 
         labels = self.labels
         refs = [lab for lab in CONTROLLERS if lab in labels]
+        planned = self.planned()
+        shown = {(lab, s): v for (lab, s), v in planned.items() if s in self.scenarios}
+        instances = describe_sets(shown, self.scenarios, self.split)
+        with_published = with_published and final_test_only(shown)  # F-POLICY-PUBLISHED: final-test numbers
+        problems = incomplete(self.episodes, planned, labels, self.scenarios)
+        if problems and not allow_incomplete:  # refused: the costs and errors go to stderr, stdout stays empty
+            self._render_costs(show=fmt != "json", console=stderr)
+        refuse_incomplete(problems, allow_incomplete, "evaluation")
         try:
             comparisons = [c for policy in self.user_labels for m in metrics
                            for c in compare(self.episodes, policy, refs, self.scenarios, m)]
         except MissingExtra as exc:
             fail(str(exc))
         if fmt == "json":
-            runs = [ep for ep in self.episodes if ep["scenario"] in self.scenarios and ep["index"] in self.indices]
-            emit_json({"runs": runs, "summary": summarize([r for r in runs if not r.get("repeat")], metrics),
+            runs = [ep for ep in self.episodes if ep["scenario"] in self.scenarios]
+            summary = summarize([r for r in runs if not r.get("repeat")], metrics)
+            for entry in summary:
+                entry.update(coverage(runs, planned, entry["controller"], entry["scenario"]).fields())
+            self._render_costs(show=False)
+            emit_json({"runs": runs, "summary": summary, "instances": instances, "complete": not problems,
+                       "incomplete": [p.problem() for p in problems],
                        "comparisons": comparisons, "nondeterminism": self.findings,
                        "published": [r for m in metrics for r in published.rows(m)] if with_published else []})
-            return
+            return bool(problems)
         for metric in metrics:
-            table = Table(title=f"{metric}: mean ± 95 % half-width (1.96·s/√n) over {len(self.indices)} instances")
+            rows = layout(self.episodes, labels, self.scenarios, metric, with_published, planned)
+            table = Table(title=f"{metric}: {instances}")
             table.add_column("Method")
+            table.add_column("n", justify="right")
             for name in self.scenarios:
                 table.add_column(name, justify="right")
-            for row in layout(self.episodes, labels, self.scenarios, metric, with_published):
-                table.add_row(row_name(row), *(fmt_cell(c, metric) for c in row.cells),
+            for row in rows:
+                table.add_row(row_name(row), row_n(row), *(fmt_cell(c, metric) for c in row.cells),
                               style="dim" if row.kind == "published" else ("bold" if row.kind == "policy" else None))
-            stdout.print(table)
+            print_table(table)
+            for line in notes(rows, instances):
+                stdout.print(Text(line))
         for policy in self.user_labels:
             for metric in metrics:
                 comps = [c for c in comparisons if c["policy"] == policy and c["metric"] == metric]
@@ -244,22 +299,24 @@ class Campaign:
                     table.add_column(col, justify="left" if col in ("scenario", "reference") else "right")
                 for c in comps:
                     table.add_row(*comparison_cells(c))
-                stdout.print(table)
+                print_table(table)
         self._render_costs()
+        return bool(problems)
 
-    def _render_costs(self) -> None:
-        table = Table(title="episodes: wall time, errors, masked actions run as idle")
-        for col in ("policy", "episodes", "s / episode", "errors", "masked actions"):
-            table.add_column(col, justify="left" if col == "policy" else "right")
-        for label in self.labels:
-            eps = [ep for ep in self.episodes if ep["controller"] == label and ep["scenario"] in self.scenarios]
-            if not eps:
-                continue
-            ok = [ep for ep in eps if ep["status"] == "ok"]
-            mean = sum(ep["wall_time"] for ep in eps) / len(eps)
-            table.add_row(label, str(len(eps)), f"{mean:.3f}", str(len(eps) - len(ok)),
-                          str(sum(ep["illegal_actions"] or 0 for ep in ok)))
-        stdout.print(table)
+    def _render_costs(self, show: bool = True, console: Any = None) -> None:
+        if show:
+            table = Table(title="episodes: wall time, errors, masked actions run as idle")
+            for col in ("policy", "episodes", "s / episode", "errors", "masked actions"):
+                table.add_column(col, justify="left" if col == "policy" else "right")
+            for label in self.labels:
+                eps = [ep for ep in self.episodes if ep["controller"] == label and ep["scenario"] in self.scenarios]
+                if not eps:
+                    continue
+                ok = [ep for ep in eps if ep["status"] == "ok"]
+                mean = sum(ep["wall_time"] for ep in eps) / len(eps)
+                table.add_row(label, str(len(eps)), f"{mean:.3f}", str(len(eps) - len(ok)),
+                              str(sum(ep["illegal_actions"] or 0 for ep in ok)))
+            print_table(table, console)
         for ep in self.episodes:
             if ep["status"] == "error":
                 stderr.print(f"[bold red]error[/]: policy {ep['controller']} ({where(ep)}): {ep['error']['message']} "

@@ -31,6 +31,7 @@ COMMANDS = {
     "render": "agspec.cli.render_cmds:render",
     "report": "agspec.cli.report_cmds:report",
     "explain": "agspec.cli.explain_cmds:explain",
+    "train": "agspec.cli.train_cmds:train",
 }
 
 

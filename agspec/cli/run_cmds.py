@@ -14,6 +14,7 @@ from agspec.campaign.executor import ExecutorError, ExecutorSpec
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, SEED_RANGE, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
+from agspec.policy.host import DEFAULT_LOAD_TIMEOUT
 
 # Metrics shown by `agspec run` in its table: (key, label, format, spec ID). The ID column is what
 # `agspec explain ID` takes, so every label can be looked up without the paper.
@@ -102,8 +103,11 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 @click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
 @click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
               help="Seconds a policy may take per decision.")
+@click.option("--load-timeout", type=click.FloatRange(0.001, 86400), default=DEFAULT_LOAD_TIMEOUT, show_default=True,
+              help="Seconds a Python policy may take to load: module import and factory(env) (F-POLICY-HOST).")
 def run(target: str, index: int | None, seed: int | None, controller: str, horizon: int | None, fmt: str,
-        trace_path: Path | None, observations: bool, policy: str | None, strict: bool, timeout: float) -> None:
+        trace_path: Path | None, observations: bool, policy: str | None, strict: bool, timeout: float,
+        load_timeout: float) -> None:
     """Run one episode of SCENARIO (official name or .ag file) or INSTANCE (.json) with a reference controller
     or a policy."""
     from agspec.evaluate import run_episode
@@ -135,6 +139,7 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
             task = progress.add_task(f"{instance['id']} · {controller}", total=total)
             result = run_episode(instance, spec or controller, horizon=horizon, trace=writer,
                                  observations_in_trace=observations, strict=strict, timeout=timeout,
+                                 load_timeout=load_timeout,
                                  on_tick=lambda t, limit: progress.update(task, completed=t))
     except SlotOverflow as exc:
         fail(f"action-slot overflow (O-ACTION-ENCODING): {exc}", EXIT_INVALID)
@@ -196,10 +201,16 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
 @click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
 @click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
 @click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
-              help="Seconds a policy may take per decision (F-POLICY-ERRORS).")
+              help="Seconds a policy may take per decision, loading excluded (F-POLICY-ERRORS).")
+@click.option("--load-timeout", type=click.FloatRange(0.001, 86400), default=DEFAULT_LOAD_TIMEOUT, show_default=True,
+              help="Seconds a Python policy may take to load: module import (once per worker) and factory(env) "
+                   "(F-POLICY-HOST).")
 @click.option("--repeat", "repeats", type=click.IntRange(0, 50), default=1, show_default=True,
               help="Episodes per scenario each user policy runs twice to detect nondeterminism.")
 @click.option("--no-published", is_flag=True, help="Leave out the paper's published MARL rows.")
+@click.option("--allow-incomplete", is_flag=True,
+              help="Render rows with errors or missing episodes, marked ‡ with their n of N (F-POLICY-COVERAGE); "
+                   "without it they are refused. Either way such rows make the exit status 1.")
 @click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write a results bundle (written as episodes end).")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
@@ -210,7 +221,8 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
 def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
              versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
              indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
-             timeout: float, repeats: int, no_published: bool, out_path: Path | None, fmt: str, paper: bool,
+             timeout: float, load_timeout: float, repeats: int, no_published: bool, allow_incomplete: bool,
+             out_path: Path | None, fmt: str, paper: bool,
              out_dir: Path, campaign: ExecutorSpec) -> None:
     """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
     (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
@@ -227,7 +239,7 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
         fail("give at most one --name and one --policy-version per --policy")
     plan = Campaign.plan(bundles=bundles, policies=policies, names=names, versions=versions,
                              controllers=controllers, scenarios=scenarios, split=split, indices=indices,
-                             strict=strict, timeout=timeout, repeats=repeats)
+                             strict=strict, timeout=timeout, load_timeout=load_timeout, repeats=repeats)
     try:
         plan.run(campaign, out_path, show=fmt == "table" and sys.stderr.isatty())
     except ExecutorError as exc:
@@ -237,8 +249,8 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
         from agspec.cli.evaluate_view import DIAGNOSTICS
 
         metrics = tuple(dict.fromkeys((*metrics, *DIAGNOSTICS)))
-    plan.render(metrics, fmt, with_published=not no_published)
-    if plan.failed:
+    incomplete = plan.render(metrics, fmt, with_published=not no_published, allow_incomplete=allow_incomplete)
+    if plan.failed or incomplete:  # F-EXIT-CODES: errors, missing episodes or nondeterminism
         raise SystemExit(EXIT_INVALID)
 
 

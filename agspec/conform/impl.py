@@ -555,12 +555,18 @@ def _load_factory(target: str) -> Callable[[], Any]:
             if not path.is_file():
                 raise ImplSpecError(f"`python:{target}`: no file {module_name}")
             name = f"agspec_impl_{abs(hash(str(path.resolve())))}"
-            spec = importlib.util.spec_from_file_location(name, path)
-            if spec is None or spec.loader is None:
-                raise ImplSpecError(f"`python:{target}`: cannot import {module_name}")
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module
-            spec.loader.exec_module(module)
+            module = sys.modules.get(name)  # a file is executed once per process, as an import is (F-POLICY-PYTHON)
+            if module is None:
+                spec = importlib.util.spec_from_file_location(name, path)
+                if spec is None or spec.loader is None:
+                    raise ImplSpecError(f"`python:{target}`: cannot import {module_name}")
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[name] = module
+                try:
+                    spec.loader.exec_module(module)
+                except BaseException:
+                    sys.modules.pop(name, None)  # a failed import leaves nothing half-initialised behind
+                    raise
         else:
             module = importlib.import_module(module_name)
     except ImplSpecError:

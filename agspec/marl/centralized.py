@@ -28,14 +28,17 @@ class CentralizedEnv(gym.Env):
     metadata = {"render_modes": ["ansi", "human"], "render_fps": 4}
 
     def __init__(self, scenario: str | Path | Mapping[str, Any] = "coalition-easy", index: int | None = None, *,
-                 reward: str = "sparse-delivery-v1", render_mode: str | None = None,
-                 max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
+                 split: str | None = None, seed: int | None = None, stage: int = 0,
+                 realization_steps: int | None = None, reward: str = "sparse-delivery-v1",
+                 render_mode: str | None = None, max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
         if reward not in REWARDS:
             raise AdapterError(f"reward must be one of {REWARDS}, got {reward!r}")
         self.reward_name = reward
         self.render_mode = render_mode
-        self.par = AssemblyGridParallelEnv(scenario, index, render_mode=render_mode, max_cycles=max_cycles,
-                                           search_paths=search_paths)
+        # A-PZ-SPLIT: the split options cycle the instances of the underlying parallel environment
+        self.par = AssemblyGridParallelEnv(scenario, index, split=split, seed=seed, stage=stage,
+                                           realization_steps=realization_steps, render_mode=render_mode,
+                                           max_cycles=max_cycles, search_paths=search_paths)
         n = len(self.par.possible_agents)
         self.robots = list(self.par.possible_agents)
         self.observation_space = spaces.Dict({

@@ -17,6 +17,8 @@ from pettingzoo import ParallelEnv
 
 from agspec.interp.observe import N_ACTIONS
 from agspec.interp.tick import Simulator
+from agspec.ir.instance import make_instance
+from agspec.marl import curriculum
 from agspec.marl.batch import BatchEncoder
 from agspec.marl.encoding import OBS_DIM, PublicInfo, encode_state, state_dim
 from agspec.marl.render import render_text
@@ -45,20 +47,106 @@ def load_instance(scenario: str | Path | Mapping[str, Any], index: int | None = 
         raise AdapterError(str(exc)) from None
 
 
+class Curriculum:
+    """A-PZ-SPLIT: the instances a split environment plays, realized when first played.
+
+    ``items`` are the split's instance keys (training realization r, or a suite index); the n-th
+    instance a reset plays is ``items[(n or steps // block) mod len(items)]`` (RES-SPLIT-CYCLE).
+    """
+
+    def __init__(self, bundle: tuple[Any, Any, Any], split: str, seed: int | None, stage: int, block: int | None):
+        self.bundle, self.split, self.seed, self.stage, self.block = bundle, split, seed, stage, block
+        if split == "training":
+            self.items: list[int] = list(range(curriculum.REALIZATIONS))
+        else:
+            self.items = list(curriculum.split_indices(split))
+        self._instances: dict[int, dict[str, Any]] = {}
+        self.resets = 0  # resets that played the curriculum (not an options["instance"])
+
+    def position(self, steps: int) -> int:
+        """Which item the next curriculum reset plays, ``steps`` env steps into the environment's life."""
+        n = self.resets if self.block is None else steps // self.block
+        return n % len(self.items)
+
+    def instance(self, position: int) -> dict[str, Any]:
+        key = self.items[position]
+        if key not in self._instances:
+            if self.split == "training":  # A-TRAINING-REALIZATIONS
+                self._instances[key] = curriculum.training_instance(self.bundle, self.seed, self.stage, key)
+            else:
+                self._instances[key] = make_instance(*self.bundle, index=key)
+        return self._instances[key]
+
+
+def make_curriculum(scenario: Any, index: int | None, split: str | None, seed: int | None, stage: int,
+                    realization_steps: int | None, search_paths: tuple[str, ...]) -> Curriculum | None:
+    """A-PZ-SPLIT: check the split options and load the scenario they cycle over (None: no split)."""
+    from agspec.catalogue import CatalogueError, load_scenario_bundle, read_instance_file
+
+    if split is None:
+        for name, value in (("seed", seed), ("realization_steps", realization_steps)):
+            if value is not None:
+                raise AdapterError(f"{name}= is an option of split environments; give split='training' "
+                                   "(or 'validation', 'final-test')")
+        if stage:
+            raise AdapterError("stage= is an option of split='training'")
+        return None
+    try:
+        name = curriculum.split_name(split)
+    except curriculum.CurriculumError as exc:
+        raise AdapterError(str(exc)) from None
+    if index is not None:
+        raise AdapterError(f"split={split!r} plays the split's instances; it takes no index")
+    if realization_steps is not None and (isinstance(realization_steps, bool) or not isinstance(realization_steps, int)
+                                          or realization_steps < 1):
+        raise AdapterError(f"realization_steps must be a positive integer, got {realization_steps!r}")
+    if name == "training" and seed is None:
+        raise AdapterError("split='training' needs seed=K, the run's algorithm seed: the training realizations "
+                           "are derived from it (A-TRAINING-REALIZATIONS)")
+    if name != "training" and (seed is not None or stage):
+        raise AdapterError(f"split={split!r} plays the canonical suite instances, the same for every run; "
+                           "seed= and stage= belong to split='training'")
+    if isinstance(scenario, Mapping):
+        raise AdapterError("a split environment needs a scenario (a name or a scenario file), not an instance")
+    try:
+        if read_instance_file(scenario) is not None:
+            raise AdapterError(f"{scenario} is an instance; a split environment needs a scenario")
+        bundle = load_scenario_bundle(scenario, search_paths)
+        out = Curriculum(bundle, name, seed, stage, realization_steps)
+        out.instance(0)  # the seed formula's checks and the first realization, before any reset
+    except (CatalogueError, curriculum.CurriculumError, ValueError) as exc:
+        if isinstance(exc, AdapterError):
+            raise
+        raise AdapterError(str(exc)) from None
+    return out
+
+
 class AssemblyGridParallelEnv(ParallelEnv):
-    """AssemblyGrid v1 as a PettingZoo ParallelEnv (A-PZ-ENV)."""
+    """AssemblyGrid v1 as a PettingZoo ParallelEnv (A-PZ-ENV).
+
+    With ``split`` (A-PZ-SPLIT) it cycles over a split's instances on reset: ``split="training"``
+    with ``seed=K`` plays the run's five training realizations (A-TRAINING-REALIZATIONS),
+    ``"validation"`` and ``"final-test"`` the canonical suite instances.
+    """
 
     metadata = {"name": "assemblygrid_v1", "render_modes": ["ansi", "human"], "is_parallelizable": True, "render_fps": 4}
 
     def __init__(self, scenario: str | Path | Mapping[str, Any], index: int | None = None, *,
-                 render_mode: str | None = None, max_cycles: int | None = None,
-                 search_paths: tuple[str, ...] = ()):
+                 split: str | None = None, seed: int | None = None, stage: int = 0,
+                 realization_steps: int | None = None, render_mode: str | None = None,
+                 max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise AdapterError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self._scenario, self._search_paths = scenario, search_paths
         self.render_mode = render_mode
         self.max_cycles = max_cycles
-        self._set_instance(load_instance(scenario, index, search_paths))
+        self.curriculum = make_curriculum(scenario, index, split, seed, stage, realization_steps, search_paths)
+        self.position: int | None = None  # the curriculum item now played (None: not a split env, or an option)
+        self.total_steps = 0  # env steps over the environment's life (the clock of realization_steps)
+        if self.curriculum is not None:
+            self._set_instance(self.curriculum.instance(0))
+        else:
+            self._set_instance(load_instance(scenario, index, search_paths))
 
     # ------------------------------------------------------------------ instance and spaces
 
@@ -106,6 +194,13 @@ class AssemblyGridParallelEnv(ParallelEnv):
                 self._set_instance(load_instance(choice, None, self._search_paths))
             else:
                 raise AdapterError(f"options['instance'] must be an index, an instance IR or a path, got {choice!r}")
+            self.position = None
+        elif self.curriculum is not None:  # A-PZ-SPLIT: the seed never picks the instance, the cycle does
+            self.position = self.curriculum.position(self.total_steps)
+            self.curriculum.resets += 1
+            instance = self.curriculum.instance(self.position)
+            if instance is not self.instance:
+                self._set_instance(instance)
         if seed is not None:
             for k, agent in enumerate(self.possible_agents):
                 self.action_space(agent).seed(int(seed) + k)
@@ -148,6 +243,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         result = self.sim.step(joint)
         self.last_events = result.events
         self._cycles += 1
+        self.total_steps += 1
         team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         truncated = result.truncated or (self.max_cycles is not None and self._cycles >= self.max_cycles
                                          and not result.terminated)
@@ -183,5 +279,6 @@ class AssemblyGridParallelEnv(ParallelEnv):
 
 
 def parallel_env(scenario: str | Path | Mapping[str, Any], index: int | None = None, **kwargs: Any) -> AssemblyGridParallelEnv:
-    """``agspec.pettingzoo.parallel_env("coalition-medium", index=1000)`` (A-PZ-ENV)."""
+    """``parallel_env("coalition-medium", index=1000)`` (A-PZ-ENV), or a split environment cycling its
+    instances on reset: ``parallel_env("coalition-medium", split="training", seed=0)`` (A-PZ-SPLIT)."""
     return AssemblyGridParallelEnv(scenario, index, **kwargs)

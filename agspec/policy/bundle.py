@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
 
 FORMAT = "agspec-results/1"
 
@@ -40,10 +41,14 @@ def host_facts() -> dict[str, Any]:
 
 
 def header(policies: Iterable[Mapping[str, Any]], instances: Iterable[Mapping[str, Any]], *,
-           split: str | None, workers: int, options: Mapping[str, Any]) -> dict[str, Any]:
-    return {"format": FORMAT, "agspec_version": __version__, "spec_version": SPEC_VERSION,
+           split: str | None, workers: int, options: Mapping[str, Any], planned: Planned | None = None
+           ) -> dict[str, Any]:
+    head = {"format": FORMAT, "agspec_version": __version__, "spec_version": SPEC_VERSION,
             "catalogue_digest": catalogue_digest(), "split": split, "command": sys.argv[1:], "workers": workers,
             "options": dict(options), "host": host_facts(), "policies": list(policies), "instances": list(instances)}
+    if planned is not None:  # F-POLICY-COVERAGE: what the summaries must be over
+        head["planned"] = planned_entries(planned)
+    return head
 
 
 class BundleWriter:
@@ -150,6 +155,8 @@ def combine(bundles: list[tuple[str, Mapping[str, Any]]]) -> dict[str, Any]:
             episodes.setdefault((ep["controller"], ep["scenario"], ep["index"], bool(ep.get("repeat"))), ep)
     return {"spec_version": first["spec_version"], "catalogue_digest": first["catalogue_digest"],
             "agspec_version": first["agspec_version"], "policies": list(policies.values()),
+            "planned": merge(*(planned_of_bundle(doc) for _, doc in bundles)),
+            "split": first.get("split") if all(doc.get("split") == first.get("split") for _, doc in bundles) else None,
             "instances": list(instances.values()), "episodes": list(episodes.values()),
             "nondeterminism": [n for _, doc in bundles for n in doc.get("nondeterminism", [])],
             "complete": all(doc.get("complete", False) for _, doc in bundles)}

@@ -1,8 +1,9 @@
 """What ``--policy`` names and how a misbehaving policy is reported (F-POLICY-SPEC, F-POLICY-ERRORS).
 
 A policy is one of: a reference controller name (C-RANDOM … C-CENTRALIZED), an in-process Python
-factory ``PATH.py:NAME`` or ``package.module:NAME`` (F-POLICY-PYTHON), or a command line speaking
-``agspec-policy/1`` (F-POLICY-PROTOCOL).  A :class:`PolicySpec` is plain data so that it crosses
+factory ``PATH.py:NAME`` or ``package.module:NAME`` (F-POLICY-PYTHON), a training run directory of
+``agspec train`` (F-POLICY-CHECKPOINT), or a command line speaking ``agspec-policy/1``
+(F-POLICY-PROTOCOL).  A :class:`PolicySpec` is plain data so that it crosses
 process boundaries; the factory is imported where the episode runs.
 """
 
@@ -12,12 +13,13 @@ import hashlib
 import re
 import shlex
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
 from agspec.controllers import CONTROLLERS
 
-KINDS = ("controller", "python", "command")
+KINDS = ("controller", "python", "checkpoint", "command")
 _PYTHON_TARGET = re.compile(r"^(?P<module>[^\s:]+):(?P<attr>[A-Za-z_][A-Za-z0-9_]*)$")
 
 
@@ -45,16 +47,20 @@ class PolicyError(Exception):
 class PolicySpec:
     """One evaluated policy (F-POLICY-SPEC): its kind, target, label, user version and file digest."""
 
-    kind: str  # controller | python | command
-    target: str  # controller name, "module:attr" / "path.py:attr", or the command line
+    kind: str  # controller | python | checkpoint | command
+    target: str  # controller name, "module:attr" / "path.py:attr", a run directory, or the command line
     label: str
     version: str | None = None
     file_digest: str | None = None  # sha256 of the policy's file, where it has one
+    training: tuple[tuple[str, Any], ...] | None = None  # F-POLICY-CHECKPOINT: what the run was
 
     def identity(self) -> dict[str, Any]:
         """The policy's identity as recorded in a results bundle."""
-        return {"label": self.label, "kind": self.kind, "target": self.target, "version": self.version,
-                "file_sha256": self.file_digest}
+        out = {"label": self.label, "kind": self.kind, "target": self.target, "version": self.version,
+               "file_sha256": self.file_digest}
+        if self.training is not None:
+            out["training"] = dict(self.training)
+        return out
 
 
 def _sha256(path: Path) -> str:
@@ -68,6 +74,8 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
         raise PolicySpecError("--policy is empty")
     if text in CONTROLLERS:
         return PolicySpec("controller", text, label or text, version)
+    if Path(text).is_dir():
+        return checkpoint_policy(Path(text), label, version)
     m = _PYTHON_TARGET.match(text)
     if m:
         module = m.group("module")
@@ -87,6 +95,28 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
                       _sha256(script) if script is not None else None)
 
 
+def checkpoint_policy(run_dir: Path, label: str | None = None, version: str | None = None) -> PolicySpec:
+    """F-POLICY-CHECKPOINT: a finished ``agspec train`` run directory; its identity is the policy file's
+    SHA-256 with the run's algorithm, scenario, seed, steps and configuration digest."""
+    from agspec.train.rundir import POLICY, RunDirError, read_summary, sha256_file
+
+    try:
+        summary = read_summary(run_dir)
+    except RunDirError as exc:
+        raise PolicySpecError(f"--policy {run_dir}: {exc}") from None
+    policy_file = run_dir / POLICY
+    if summary.get("status") != "complete" or not policy_file.is_file():
+        raise PolicySpecError(f"--policy {run_dir}: the training run is not complete (status "
+                              f"{summary.get('status')!r}); finish it with agspec train --resume")
+    digest = sha256_file(policy_file)
+    if digest != (summary.get("policy") or {}).get("sha256"):
+        raise PolicySpecError(f"--policy {run_dir}: {POLICY} does not match the digest its run.json records")
+    training = (("algorithm", summary["algorithm"]), ("scenario", summary["scenario"]), ("seed", summary["seed"]),
+                ("steps", summary["steps"]), ("config_sha256", summary["config_sha256"]))
+    return PolicySpec("checkpoint", str(run_dir.resolve()), label or run_dir.resolve().name, version, digest,
+                      training)
+
+
 def _module_digest(module: str) -> str | None:
     """The digest of an importable module's source file, when it has one (not for namespace packages)."""
     import importlib.util
@@ -101,8 +131,23 @@ def _module_digest(module: str) -> str | None:
     return _sha256(origin) if origin is not None and origin.is_file() else None
 
 
+@lru_cache(maxsize=8)
+def _checkpoint_factory(run_dir: str, digest: str | None) -> Callable[..., Any]:
+    """A run directory's factory, loaded once per process and policy file (F-POLICY-HOST: the import of a
+    Python policy's module is once per worker; a checkpoint's load is the same)."""
+    from agspec.train.api import MissingExtra, load_policy
+    from agspec.train.checkpoint import CheckpointError
+
+    try:
+        return load_policy(run_dir)
+    except (MissingExtra, CheckpointError) as exc:
+        raise PolicySpecError(f"--policy {run_dir}: {exc}") from None
+
+
 def load_factory(spec: PolicySpec) -> Callable[..., Any]:
     """The factory an in-process policy names (F-POLICY-PYTHON), imported in the calling process."""
+    if spec.kind == "checkpoint":  # F-POLICY-CHECKPOINT
+        return _checkpoint_factory(spec.target, spec.file_digest)
     from agspec.conform.impl import ImplSpecError, _load_factory
 
     try:

@@ -18,10 +18,10 @@ import signal
 import threading
 import traceback
 from contextlib import contextmanager
-from typing import Any, Iterator, Mapping, NamedTuple
+from typing import Any, Callable, Iterator, Mapping, NamedTuple
 
 from agspec.interp.tick import Simulator
-from agspec.policy.contract import PolicyError, PolicySpec, load_factory
+from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError, load_factory
 
 POLICY_PROTOCOL = "agspec-policy/1"
 
@@ -52,6 +52,18 @@ def deadline(seconds: float | None, what: str, tick: int | None) -> Iterator[Non
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+def alarm_guard(load_timeout: float | None, timeout: float | None) -> Callable[[str, str, int | None], Any]:
+    """The in-process guard of one episode: ``deadline`` with the load or the decision limit.
+
+    Used where the process ends with the episode (``agspec run --policy``) or the caller chose
+    in-process episodes; a campaign times its Python policies from outside (F-POLICY-HOST).
+    """
+    def guard(phase: str, what: str, tick: int | None):
+        return deadline(load_timeout if phase == "load" else timeout, what, tick)
+
+    return guard
 
 
 def _raised(what: str, exc: Exception, tick: int | None) -> PolicyError:
@@ -85,26 +97,34 @@ class ControllerSession:
 
 
 class PettingZooSession:
-    """F-POLICY-PYTHON: ``factory(env)`` once per episode, then ``policy(observations, infos)`` per epoch."""
+    """F-POLICY-PYTHON: ``factory(env)`` once per episode, then ``policy(observations, infos)`` per epoch.
+
+    ``guard(phase, what, tick)`` bounds the loading phase (module import and factory call, phase
+    ``load``) and each decision (phase ``decide``): by default an in-process alarm with
+    ``load_timeout`` and ``timeout``; in a campaign's policy host, messages to the worker that
+    times them from outside (F-POLICY-HOST).
+    """
 
     def __init__(self, spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, *,
-                 timeout: float | None = None, **_: Any):
+                 timeout: float | None = None, load_timeout: float | None = None,
+                 guard: Callable[[str, str, int | None], Any] | None = None, **_: Any):
         try:
             from agspec.pettingzoo import parallel_env
         except ImportError as exc:
             raise PolicyError("setup", f"in-process policies need the PettingZoo adapter: pip install 'agspec[marl]' "
                                        f"({exc})") from None
-        factory = load_factory(spec)
+        self.guard = guard or alarm_guard(load_timeout, timeout)
         self.env = parallel_env(instance)
         self.sim = self.env.sim
         self.name, self.information = spec.label, "local"
-        self.timeout = timeout
         self.observations = None
         self._obs, self._infos = self.env.reset(seed=exec_seed)
+        what = f"loading the policy ({spec.target}: import once per worker, factory(env) once per episode)"
         try:
-            with deadline(timeout, f"the policy factory {spec.target}(env)", None):
+            with self.guard("load", what, None):
+                factory = load_factory(spec)
                 self.policy = factory(self.env)
-        except PolicyError:
+        except (PolicyError, PolicySpecError):
             raise
         except Exception as exc:
             raise _raised(f"the policy factory {spec.target}(env)", exc, None) from None
@@ -115,7 +135,7 @@ class PettingZooSession:
     def act(self) -> Mapping[str, Any]:
         t = self.sim.t
         try:
-            with deadline(self.timeout, "the policy", t):
+            with self.guard("decide", "the policy's decision", t):
                 return self.policy(self._obs, self._infos)
         except PolicyError:
             raise
@@ -206,7 +226,9 @@ def validate_message(name: str, message: Any) -> list[str]:
     return [str(p) for p in validate(f"protocol/{name}", message, limit=3)]
 
 
-SESSIONS = {"controller": ControllerSession, "python": PettingZooSession, "command": ProcessSession}
+# F-POLICY-CHECKPOINT: a trained network plays through the PettingZoo environment like any factory
+SESSIONS = {"controller": ControllerSession, "python": PettingZooSession, "checkpoint": PettingZooSession,
+            "command": ProcessSession}
 
 
 def open_session(spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, **options: Any):

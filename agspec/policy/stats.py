@@ -80,7 +80,8 @@ def compare(runs: list[Mapping[str, Any]], policy: str, references: Iterable[str
 
 
 def summary_cell(runs: Iterable[Mapping[str, Any]], label: str, scenario: str, metric: str) -> dict[str, Any]:
-    """mean ± half-width (1.96·s/√n) of one policy's ok episodes in one scenario."""
+    """mean ± half-width (1.96·s/√n) of one policy's ok episodes in one scenario; no interval below n = 2
+    (one value has no spread to report, and "± 0" would claim one)."""
     values = list(values_by_episode(runs, label, scenario, metric).values())
     mean, half = mean_ci(values)
-    return {"mean": _finite(mean), "half_width": _finite(half), "n": len(values)}
+    return {"mean": _finite(mean), "half_width": _finite(half) if len(values) >= 2 else None, "n": len(values)}

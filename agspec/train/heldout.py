@@ -1,0 +1,101 @@
+"""The paper's held-out row from several trained checkpoints (spec/16-training.md, T-CHECKPOINT-ROW).
+
+tab:checkpoint-heldout summarizes ten independently trained final checkpoints of one method on one
+scenario: each policy's mean over its final-test episodes, then the mean of those per-policy means
+with the 95 % Student-t half-width t₀.₉₇₅,ₙ₋₁·s/√n across the n policies.  The uncertainty is over
+training seeds, not instances.  The t quantile is SciPy's (the extra ``agspec[eval]``).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from typing import Any, Iterable, Mapping
+
+from agspec.policy import published
+from agspec.policy.stats import MissingExtra
+
+PAPER_NAMES = {"ippo": "IPPO", "mappo": "MAPPO", "qmix": "QMIX"}
+
+
+def t_half_width(values: list[float]) -> float | None:
+    """t₀.₉₇₅,ₙ₋₁ · s / √n over per-policy means; None for fewer than two."""
+    if len(values) < 2:
+        return None
+    try:
+        from scipy import stats
+    except ImportError:
+        raise MissingExtra("the Student-t interval over training seeds needs SciPy: pip install 'agspec[eval]'") from None
+    return float(stats.t.ppf(0.975, len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values)))
+
+
+def rows(policies: Iterable[Mapping[str, Any]], episodes: Iterable[Mapping[str, Any]],
+         metric: str = "delivered") -> list[dict[str, Any]]:
+    """One row per (algorithm, scenario) of the checkpoint policies (F-POLICY-CHECKPOINT) in a bundle.
+
+    A policy counts only with every one of its (first-run) episodes of that scenario ``ok``; the others
+    are listed under ``incomplete``.  Each row carries the number of policies and of instances per policy.
+    """
+    eps = [e for e in episodes if not e.get("repeat")]
+    groups: dict[tuple[str, str], list[tuple[str, Mapping[str, Any]]]] = {}
+    for p in policies:
+        training = p.get("training")
+        if p.get("kind") == "checkpoint" and training:
+            groups.setdefault((training["algorithm"], training["scenario"]), []).append((p["label"], training))
+    out = []
+    for (algorithm, scenario), members in sorted(groups.items()):
+        means, seeds, incomplete, instances = [], [], [], set()
+        for label, training in sorted(members, key=lambda m: m[1]["seed"]):
+            mine = [e for e in eps if e["controller"] == label and e["scenario"] == scenario]
+            if not mine or any(e.get("status") != "ok" for e in mine):
+                incomplete.append(label)
+                continue
+            instances.add(len(mine))
+            means.append(statistics.fmean(float(e["metrics"][metric]) for e in mine))
+            seeds.append(training["seed"])
+        paper = published.cell(metric, PAPER_NAMES[algorithm], scenario)
+        out.append({"algorithm": algorithm, "scenario": scenario, "metric": metric, "n": len(means),
+                    "seeds": seeds, "instances_per_policy": sorted(instances),
+                    "mean": statistics.fmean(means) if means else None, "half_width": t_half_width(means),
+                    "per_policy": means, "incomplete": incomplete,
+                    "published": {"mean": paper["mean"], "half_width": paper["half_width"]} if paper else None})
+    return out
+
+
+def _cell(mean: float | None, half: float | None) -> str:
+    if mean is None:
+        return "—"
+    return f"{mean:.2f}" if half is None else f"{mean:.2f} ± {half:.2f}"
+
+
+def markdown(table: list[dict[str, Any]]) -> str:
+    """T-CHECKPOINT-ROW as Markdown: n runs and instances per run in every row."""
+    if not table:
+        return ""
+    lines = [f"Trained checkpoints, {table[0]['metric']}: mean of per-policy means, 95 % Student-t over training "
+             "seeds (tab:checkpoint-heldout's rule)", "",
+             "| method | scenario | n runs | instances per run | this evaluation | published (10 runs × 50) | left out |",
+             "|---|---|---|---|---|---|---|"]
+    for r in table:
+        pub = r["published"]
+        lines.append(f"| {PAPER_NAMES[r['algorithm']]} | {r['scenario']} | {r['n']} | "
+                     f"{', '.join(map(str, r['instances_per_policy'])) or '—'} | {_cell(r['mean'], r['half_width'])} | "
+                     f"{_cell(pub['mean'], pub['half_width']) if pub else '—'} | "
+                     f"{', '.join(r['incomplete']) or '—'} |")
+    return "\n".join(lines) + "\n"
+
+
+def latex(table: list[dict[str, Any]]) -> str:
+    """T-CHECKPOINT-ROW as a booktabs table."""
+    if not table:
+        return ""
+    pm = "$\\pm$"
+    body = []
+    for r in table:
+        pub = r["published"]
+        ours = _cell(r["mean"], r["half_width"]).replace(" ± ", pm)
+        theirs = _cell(pub["mean"], pub["half_width"]).replace(" ± ", pm) if pub else "--"
+        body.append(f"{PAPER_NAMES[r['algorithm']]} & {r['scenario']} & {r['n']} & {ours} & {theirs} \\\\")
+    return "\n".join(["\\begin{tabular}{llrrr}", "\\toprule",
+                      "Method & Scenario & $n$ & This evaluation & Published \\\\", "\\midrule", *body,
+                      "\\bottomrule", "\\end{tabular}", ""])

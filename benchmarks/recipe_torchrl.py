@@ -1,0 +1,143 @@
+"""Recipe: train IPPO with TorchRL (one shared agent group), evaluate with agspec.
+
+    pip install torch==2.13.0 torchrl tensordict   # not agspec dependencies
+    python benchmarks/recipe_torchrl.py --scenario flow-easy --seed 0 --env-steps 2000 --out runs/torchrl-flow-easy
+
+The glue is the part of docs/training.md ("Training with other libraries") this script runs:
+
+* ``parallel_env(scenario, split="training", seed=K, realization_steps=…)`` (A-PZ-SPLIT) cycles the
+  run's training realizations on reset; ``coalition_milestone_v1`` is the paper's reward;
+* TorchRL's ``PettingZooWrapper`` with ``group_map={"robots": every robot}`` makes one agent group,
+  so one actor and one critic are shared by every robot (parameter sharing); the observation's
+  ``action_mask`` entry becomes the group's mask, and the actor samples from a
+  ``MaskedCategorical`` (a masked action has probability 0);
+* PPO from TorchRL's pieces: ``SyncDataCollector``, ``GAE``, ``ClipPPOLoss``, the clip and GAE
+  values of the paper's table (0.10, γ 0.99, λ 0.95); the critic sees the robot's own
+  observation (IPPO);
+* the actor is saved as a state dict and evaluated by ``agspec evaluate --policy
+  benchmarks/recipe_torchrl_policy.py:make_policy`` on the validation instances, with the masked
+  argmax of its logits.
+
+It prints env steps/s and agent samples/s of training and the validation table; the budget here is
+tiny (a smoke run of the recipe), so the numbers say that it runs, not what it learns.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from tensordict.nn import TensorDictModule
+from torch import nn
+from torchrl.collectors import SyncDataCollector
+from torchrl.data import LazyTensorStorage, ReplayBuffer, SamplerWithoutReplacement
+from torchrl.envs.libs.pettingzoo import PettingZooWrapper
+from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
+from torchrl.objectives import ClipPPOLoss, ValueEstimators
+
+from agspec.pettingzoo import coalition_milestone_v1, parallel_env
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from recipe_torchrl_policy import actor_network  # noqa: E402  (the one definition of the actor)
+
+GROUP = "robots"
+OBS = (GROUP, "observation", "observation")  # the Dict space's "observation" entry, per robot
+
+
+def make_env(scenario: str, seed: int, env_steps: int, max_cycles: int | None) -> PettingZooWrapper:
+    par = coalition_milestone_v1(parallel_env(scenario, split="training", seed=seed,
+                                              realization_steps=max(1, env_steps // 5), max_cycles=max_cycles),
+                                 support_credit="agent")
+    return PettingZooWrapper(par, group_map={GROUP: list(par.possible_agents)}, categorical_actions=True,
+                             use_mask=False, return_state=False, seed=seed)
+
+
+def train(args: argparse.Namespace) -> dict:
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+    env = make_env(args.scenario, args.seed, args.env_steps, args.max_cycles)
+    agents = len(env.group_map[GROUP])
+    actor_net = TensorDictModule(actor_network(), in_keys=[OBS], out_keys=[(GROUP, "logits")])
+    actor = ProbabilisticActor(actor_net, in_keys={"logits": (GROUP, "logits"), "mask": (GROUP, "action_mask")},
+                               out_keys=[env.action_key], distribution_class=MaskedCategorical, return_log_prob=True,
+                               log_prob_key=(GROUP, "sample_log_prob"))
+    critic = ValueOperator(nn.Sequential(nn.LayerNorm(1566), nn.Linear(1566, 256), nn.Tanh(), nn.Linear(256, 1)),
+                           in_keys=[OBS], out_keys=[(GROUP, "state_value")])
+    collector = SyncDataCollector(env, actor, frames_per_batch=args.rollout, total_frames=args.env_steps,
+                                  device="cpu")
+    loss = ClipPPOLoss(actor, critic, clip_epsilon=0.10, entropy_coeff=0.01, normalize_advantage=True)
+    loss.set_keys(reward=env.reward_key, action=env.action_key, sample_log_prob=(GROUP, "sample_log_prob"),
+                  value=(GROUP, "state_value"), done=(GROUP, "done"), terminated=(GROUP, "terminated"))
+    loss.make_value_estimator(ValueEstimators.GAE, gamma=0.99, lmbda=0.95)
+    optim = torch.optim.AdamW(loss.parameters(), lr=3e-4, eps=1e-5)
+    buffer = ReplayBuffer(storage=LazyTensorStorage(args.rollout), sampler=SamplerWithoutReplacement(),
+                          batch_size=max(1, args.rollout // 4))
+    started = time.perf_counter()
+    steps = 0
+    for batch in collector:
+        with torch.no_grad():
+            loss.value_estimator(batch, params=loss.critic_network_params, target_params=loss.target_critic_network_params)
+        buffer.extend(batch.reshape(-1))
+        for _ in range(4):  # epochs
+            for _ in range(4):  # minibatches
+                out = loss(buffer.sample())
+                total = out["loss_objective"] + out["loss_critic"] + out["loss_entropy"]
+                optim.zero_grad()
+                total.backward()
+                nn.utils.clip_grad_norm_(loss.parameters(), 0.5)
+                optim.step()
+        steps += batch.numel()
+    seconds = time.perf_counter() - started
+    collector.shutdown()
+    args.out.mkdir(parents=True, exist_ok=True)
+    torch.save(actor_net.module.state_dict(), args.out / "actor.pt")
+    return {"env_steps": steps, "agents": agents, "agent_samples": steps * agents, "train_seconds": round(seconds, 1),
+            "env_steps_per_s": round(steps / seconds, 1), "samples_per_s": round(steps * agents / seconds, 1)}
+
+
+def evaluate(args: argparse.Namespace) -> dict:
+    env = dict(os.environ, AGSPEC_TORCHRL_ACTOR=str(args.out / "actor.pt"))
+    cmd = [sys.executable, "-m", "agspec.cli.main", "evaluate", "--policy",
+           f"{HERE / 'recipe_torchrl_policy.py'}:make_policy", "--name", "torchrl-ippo", "--controller", "random",
+           "--scenario", args.scenario, "--split", "validation", "--indices", args.eval_indices, "--repeat", "0",
+           "--metric", "delivered", "-j", str(args.jobs), "--out", str(args.out / "validation.json")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    print(proc.stdout, end="")
+    if proc.returncode:
+        print(proc.stderr, end="", file=sys.stderr)
+    bundle = json.loads((args.out / "validation.json").read_text())
+    per: dict[str, list[float]] = {}
+    for ep in bundle["episodes"]:
+        if ep["status"] == "ok":
+            per.setdefault(ep["controller"], []).append(ep["metrics"]["delivered"])
+    return {"exit": proc.returncode, **{f"delivered_{k}": round(float(np.mean(v)), 2) for k, v in per.items()}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", default="flow-easy")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--env-steps", type=int, default=2000, help="training budget in env steps (all robots act)")
+    ap.add_argument("--rollout", type=int, default=400, help="env steps per PPO rollout")
+    ap.add_argument("--max-cycles", type=int, default=None, help="shorter training episodes (smoke runs)")
+    ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
+    ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
+    ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
+    ap.add_argument("--out", type=Path, default=Path("runs/torchrl"))
+    args = ap.parse_args()
+    result = {**train(args), **evaluate(args)}
+    print(json.dumps(result))
+    raise SystemExit(result["exit"])
+
+
+if __name__ == "__main__":
+    main()
