@@ -25,11 +25,12 @@ from typing import Any, Mapping
 
 import networkx
 
-from agspec.conform import driver
+from agspec.conform import driver, protocol
 from agspec.conform.impl import MATCHED, Implementation, Reply
 from agspec.conform.items import Item
 from agspec.formats import golden as fmt
 from agspec.formats import jsonl
+from agspec.formats import reply as reply_format
 from agspec.ir.fingerprint import fingerprint
 
 ENV = "AGSPEC_GOLDEN_CACHE"
@@ -203,7 +204,7 @@ class Recorder:
 
     def observe(self, step: driver.Step, invariant_checks: int, expectations: int) -> None:
         value = fmt.value_digest(step.expected)
-        if value is None:
+        if value is None or not _accepted(step.expected, "reset" if step.joint is None else "step"):
             self.usable = False
             return
         if step.joint is not None:
@@ -223,6 +224,18 @@ class Recorder:
                    "invariant_checks_by_reply": list(self.checks), "expectations_by_reply": list(self.expectations),
                    "event_types_from": dict(self.event_types)}
         return fmt.Golden(self.key, tuple(self.replies), tuple(self.actions), summary)
+
+
+def _accepted(reply: Reply, cmd: str) -> bool:
+    """RES-GOLDEN-IDENTITY: the line the reference sends for ``reply`` passes the one decoder and the
+    reply checks, so that a line with its text digest — which is never decoded — is one a live run
+    accepts too."""
+    try:
+        value = reply_format.decode_line(jsonl.compact_bytes(reply))
+        protocol.check_reply(cmd, value, {c: True for c in FULL})
+    except (reply_format.LineError, protocol.ProtocolError, protocol.Unsupported):
+        return False
+    return True
 
 
 def store(directory: Path, golden: fmt.Golden) -> None:

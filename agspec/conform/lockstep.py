@@ -214,7 +214,7 @@ def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> N
     res.outcome = "error"
     res.message = str(exc)
     res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
-                   "stderr": exc.stderr or None}
+                   "pointer": getattr(exc, "pointer", None), "stderr": exc.stderr or None}
     res.rendered = _render_error(item, exc, tick)
 
 

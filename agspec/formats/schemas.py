@@ -103,14 +103,20 @@ def _inline(node: Any, base: str, docs: Mapping[str, Any], stack: tuple[str, ...
     return out
 
 
-@lru_cache(maxsize=None)
-def validator(name: str) -> Draft202012Validator:
-    """The compiled validator of schema ``name`` (see :func:`schema_id`), references inlined."""
+def inlined(name: str) -> dict[str, Any]:
+    """Schema ``name`` with every ``$ref`` replaced by the schema it names (what validators and
+    :mod:`agspec.formats.shape` compile)."""
     docs = documents()
     sid = schema_id(name)
     if sid not in docs:
         raise KeyError(f"no schema {name!r} ({sid}) under {schemas_dir()}")
-    return Draft202012Validator(_inline(docs[sid], sid, docs), registry=registry())
+    return _inline(docs[sid], sid, docs)
+
+
+@lru_cache(maxsize=None)
+def validator(name: str) -> Draft202012Validator:
+    """The compiled validator of schema ``name`` (see :func:`schema_id`), references inlined."""
+    return Draft202012Validator(inlined(name), registry=registry())
 
 
 _TYPE_WORDS = ((bool, "a boolean"), (int, "an integer"), (float, "a number"), (str, "a string"), (list, "an array"),
@@ -257,5 +263,5 @@ def validate(name: str, doc: Any, limit: int = 5) -> list[SchemaProblem]:
     return out
 
 
-__all__ = ["documents", "registry", "schema_id", "load_schema", "validator", "issues", "sort_key", "iter_issues",
+__all__ = ["documents", "registry", "schema_id", "load_schema", "inlined", "validator", "issues", "sort_key", "iter_issues",
            "SchemaProblem", "validate", "json_type", "show_value"]
