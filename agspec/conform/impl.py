@@ -345,10 +345,10 @@ def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -
     """F-PROTOCOL: the reply echoes the request's seq; an earlier one is out of order."""
     if "seq" not in reply:
         raise ProtocolError("missing_field", f"the {msg['cmd']} reply has no `seq`")
-    got = reply["seq"]
-    if got == msg["seq"] and type(got) is type(msg["seq"]):
+    got, sent = reply["seq"], msg["seq"]
+    if got == sent and isinstance(got, bool) == isinstance(sent, bool):  # F-VALUES: 4.0 echoes 4
         return
-    if isinstance(got, int) and not isinstance(got, bool) and 0 < got < current:
+    if isinstance(got, (int, float)) and not isinstance(got, bool) and 0 < got < current:
         raise ProtocolError("out_of_order", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {got} "
                                             "of an earlier request")
     raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)[:80]}")

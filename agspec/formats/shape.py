@@ -22,6 +22,7 @@ the first problem).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from itertools import repeat
@@ -57,18 +58,20 @@ class Shape:
     key: str | None = None
     variants: dict[tuple[type, Any], "Shape"] = field(default_factory=dict)
     default: "Shape | None" = None
+    pattern: str | None = None  # of a string (identifiers the harness parses, R-IDS)
+    key_pattern: str | None = None  # of every member name (propertyNames)
 
     @property
     def leaf(self) -> bool:
         """A scalar position: a type test decides it."""
         return (self.types is not None and not (self.types & _CONTAINERS) and not self.required
-                and self.key is None)
+                and self.key is None and self.pattern is None)
 
     @property
     def structured(self) -> bool:
         """Something below this position is described (members, items, alternatives)."""
         return bool(self.props or self.required or self.extra or self.items or self.key or self.min_items
-                    or self.max_items is not None)
+                    or self.max_items is not None or self.pattern or self.key_pattern)
 
 
 def _types_of(values: list[Any]) -> tuple[frozenset, tuple[str, ...]]:
@@ -92,6 +95,8 @@ def _merge(a: Shape, b: Shape) -> Shape:
         a.props[k] = _merge(a.props[k], s) if k in a.props else s
     a.extra = a.extra or b.extra
     a.items = a.items or b.items
+    a.pattern = a.pattern or b.pattern
+    a.key_pattern = a.key_pattern or b.key_pattern
     a.min_items = max(a.min_items, b.min_items)
     if b.max_items is not None:
         a.max_items = b.max_items if a.max_items is None else min(a.max_items, b.max_items)
@@ -121,6 +126,11 @@ def _compile(node: Any) -> Shape:
         s.extra = _compile(node["additionalProperties"])
     if isinstance(node.get("items"), dict):
         s.items = _compile(node["items"])
+    if isinstance(node.get("pattern"), str):
+        s.pattern = node["pattern"]
+    member_names = node.get("propertyNames")
+    if isinstance(member_names, dict) and isinstance(member_names.get("pattern"), str):
+        s.key_pattern = member_names["pattern"]
     s.min_items = int(node.get("minItems", 0))
     s.max_items = node.get("maxItems")
     for part in node.get("allOf", ()):
@@ -158,6 +168,14 @@ def _opaque(level: int) -> Callable[[Any], bool]:
     return lambda v: depth(v, budget) <= budget
 
 
+def _matcher(pattern: str | None) -> Callable[[str], Any] | None:
+    return re.compile(pattern).search if pattern is not None else None  # JSON Schema patterns are unanchored
+
+
+def _strings_match(match: Callable[[str], Any], values: Any) -> bool:
+    return all(map(match, [x for x in values if type(x) is str]))
+
+
 def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
     """``s`` as a predicate for a value ``level`` containers deep (True: it has the shape and needs
     no F-VALUES rewriting)."""
@@ -173,18 +191,29 @@ def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
             f = lambda v: type(v) in types  # noqa: E731
         memo[key_] = f
         return f
+    match = _matcher(s.pattern)
+    if match is not None and not (types or frozenset()) & _CONTAINERS:  # a string with a pattern (or null)
+        def string(v: Any) -> bool:
+            return (types is None or type(v) in types) and (type(v) is not str or match(v) is not None)
+        memo[key_] = string
+        return string
     required = frozenset(s.required)
-    scalar = [(k, sub) for k, sub in s.props.items() if sub.leaf]
-    scalar_keys = tuple(k for k, _ in scalar)
-    scalar_types = tuple(sub.types | {_Absent} for _, sub in scalar)
-    deep = tuple((k, (sub.types - _CONTAINERS) | {_Absent} if sub.types is not None else frozenset({_Absent}),
-                  _build(sub, level + 1, memo)) for k, sub in s.props.items() if not sub.leaf)
+    plain = [(k, sub) for k, sub in s.props.items() if sub.leaf]
+    plain_keys = tuple(k for k, _ in plain)
+    plain_types = tuple(sub.types | {_Absent} for _, sub in plain)
+    # (member, the types that need no closer look, the member's check)
+    deep = tuple((k, (sub.types - _CONTAINERS - ({str} if sub.pattern else set())) | {_Absent}
+                  if sub.types is not None else frozenset({_Absent}), _build(sub, level + 1, memo))
+                 for k, sub in s.props.items() if not sub.leaf)
     known = frozenset(s.props)
+    key_match = _matcher(s.key_pattern)
     extra = _build(s.extra, level + 1, memo) if s.extra is not None else None
     extra_types = s.extra.types if s.extra is not None and s.extra.leaf else None
     unknown = _opaque(level + 1)
     items = _build(s.items, level + 1, memo) if s.items is not None else unknown
-    items_types = s.items.types if s.items is not None and s.items.leaf else None
+    items_types, items_match = None, None
+    if s.items is not None and (s.items.leaf or (s.items.pattern is not None and not s.items.props)):
+        items_types, items_match = s.items.types, _matcher(s.items.pattern)
     low, high = s.min_items, s.max_items
     key, variants = s.key, {k: _build(v, level, memo) for k, v in s.variants.items()}
     default = _build(s.default, level, memo) if s.default is not None else None
@@ -196,13 +225,15 @@ def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
         if tv is dict:
             if required and not required <= v.keys():
                 return False
-            if scalar_keys and not all(map(_contains, scalar_types, map(type, map(v.get, scalar_keys,
-                                                                                  repeat(_ABSENT))))):
+            if plain_keys and not all(map(_contains, plain_types, map(type, map(v.get, plain_keys,
+                                                                                repeat(_ABSENT))))):
                 return False
             for k, leaves, sub in deep:
                 x = v.get(k, _ABSENT)
                 if type(x) not in leaves and not sub(x):
                     return False
+            if key_match is not None and not all(map(key_match, v)):
+                return False
             alt = None
             if key is not None:
                 d = v.get(key)
@@ -223,8 +254,10 @@ def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
             if len(v) < low or (high is not None and len(v) > high):
                 return False
             if items_types is not None:
-                return set(map(type, v)) <= items_types
+                return set(map(type, v)) <= items_types and (items_match is None or _strings_match(items_match, v))
             return all(map(items, v))
+        elif match is not None and tv is str:
+            return match(v) is not None
         return True
 
     memo[key_] = check
@@ -276,6 +309,8 @@ def _locate(value: Any, shape: Shape) -> Problem | None:
                 continue
             found = json_type(v) if tv in _CONTAINERS else f"{json_type(v)} {_short(v)}"
             return Problem("bad_field", json_pointer(*path), f"must be {_expected(s)}, found {found}")
+        if tv is str and s.pattern is not None and re.search(s.pattern, v) is None:
+            return Problem("bad_field", json_pointer(*path), f"must match {s.pattern}, found {_short(v)}")
         if tv not in _CONTAINERS:
             continue
         if not s.structured:
@@ -287,6 +322,10 @@ def _locate(value: Any, shape: Shape) -> Problem | None:
             missing = [k for k in s.required if k not in v]
             if missing:
                 return Problem("missing_field", json_pointer(*path, missing[0]), f"lacks `{missing[0]}`")
+            wrong = [k for k in v if s.key_pattern is not None and re.search(s.key_pattern, k) is None]
+            if wrong:
+                return Problem("bad_field", json_pointer(*path, wrong[0]),
+                               f"is not a member name this object may have (must match {s.key_pattern})")
             alt = None
             if s.key is not None:
                 d = v.get(s.key)
