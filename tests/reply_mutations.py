@@ -10,6 +10,7 @@ give.  Mutation classes (:data:`CLASSES`):
 * ``types``      — a value replaced by one of another type (null, a list, a string, a deep nest, ...);
 * ``numbers``    — a number re-spelt (``6`` as ``6.0``, ``6e0``, ``60E-1``: same) or broken (5000
   digits, ``1e400``, ``-1e999``, ``2^53``, ``007``, ``+1``, ``NaN``);
+* ``values``     — a share of all the numbers of the reply re-spelt (same: F-VALUES);
 * ``keys``       — a member doubled (the wrong value first or last), dropped, added (with a hostile
   value) or renamed;
 * ``encoding``   — invalid UTF-8, a lone surrogate escape, an ASCII letter escaped as ``\\u00XX``
@@ -30,7 +31,7 @@ import random
 from dataclasses import dataclass
 from typing import Any
 
-CLASSES = ("types", "numbers", "keys", "encoding", "whitespace", "lines")
+CLASSES = ("types", "numbers", "values", "keys", "encoding", "whitespace", "lines")
 
 
 @dataclass(frozen=True)
@@ -180,6 +181,24 @@ def _numbers(value: Any, rng: random.Random) -> Mutation:
                     code=code)
 
 
+def respelt(value: Any, rng: random.Random, share: float = 1.0) -> Any:
+    """``value`` with (a ``share`` of) its numbers spelt another way — the same value (F-VALUES)."""
+    if _is_number(value) and rng.random() < share:
+        if isinstance(value, int):
+            return Raw(_respell_int(value, rng))
+        return Raw(rng.choice([f"{value:.17e}", f"{value:.17E}", repr(value)]).encode())
+    if isinstance(value, dict):
+        return {k: respelt(x, rng, share) for k, x in value.items()}
+    if isinstance(value, list):
+        return [respelt(x, rng, share) for x in value]
+    return value
+
+
+def _values(value: Any, rng: random.Random) -> Mutation:
+    share = rng.choice([0.1, 0.5, 1.0])
+    return Mutation("values", f"{share:.0%} of the numbers re-spelt", dump(respelt(value, rng, share)), same=True)
+
+
 def _keys(value: Any, rng: random.Random) -> Mutation:
     path, node = _pick(value, rng, lambda n: isinstance(n, dict) and n)
     if not (isinstance(node, dict) and node):
@@ -309,7 +328,7 @@ def named(name: str, reply: Any) -> Mutation:
     return Mutation("named", name, edit(reply), code=code)
 
 
-_MUTATORS = {"types": _types, "numbers": _numbers, "keys": _keys, "encoding": _encoding, "whitespace": _whitespace,
+_MUTATORS = {"types": _types, "numbers": _numbers, "values": _values, "keys": _keys, "encoding": _encoding, "whitespace": _whitespace,
              "lines": _lines}
 
 
@@ -321,4 +340,4 @@ def mutate(reply: Any, klass: str, rng: random.Random) -> Mutation:
     return _MUTATORS[klass](reply, rng)
 
 
-__all__ = ["CLASSES", "NAMED", "Mutation", "mutate", "named", "dump", "Raw", "Pairs"]
+__all__ = ["CLASSES", "NAMED", "Mutation", "mutate", "named", "respelt", "dump", "Raw", "Pairs"]

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import IO, Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats import shape
 from agspec.formats.jsonl import LineWriter, dumps, read_values
 
 TRACE_FORMAT = "agspec-trace/1"
@@ -18,8 +19,17 @@ TRACE_FORMAT = "agspec-trace/1"
 
 def read_records(source: str | Path | Iterable[str | bytes]) -> list[dict[str, Any]]:
     """The records of a trace (a path or its lines); an unparsable line ends the trace (it is then
-    reported as truncated by the checks that need a footer)."""
-    return read_values(source)
+    reported as truncated by the checks that need a footer).  F-VALUES: integral numbers where the
+    schema requires integers are read as integers (:func:`values_of`)."""
+    return [values_of(rec) for rec in read_values(source)]
+
+
+def values_of(record: Any) -> Any:
+    """F-VALUES: ``record`` with every integral number (within ±(2^53 − 1)) at a position
+    ``schemas/trace.schema.json`` types integer made an integer, in place; what else it holds is
+    the schema validation's to judge (F-TRACE-VALIDATE)."""
+    shape.conform(record, "trace")
+    return record
 
 
 class TraceWriter:
@@ -66,4 +76,4 @@ class TraceWriter:
         self._out.close()
 
 
-__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records"]
+__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records", "values_of"]

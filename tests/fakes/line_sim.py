@@ -53,7 +53,8 @@ class _Positions:
 
 
 class LineSim(SubprocessImpl):
-    """``mutation(reply) -> Mutation`` replaces the line of every reply at ``target`` (a position)."""
+    """``mutation(reply) -> Mutation`` replaces the line of every reply at ``target`` (a position, or
+    ``*``: every reply)."""
 
     def __init__(self, target: str | None = None, mutation: Callable[[Any], Mutation] | None = None,
                  timeout: float = 5.0, **kw: Any):
@@ -74,7 +75,7 @@ class LineSim(SubprocessImpl):
         msg = json.loads(json.dumps(msg))
         reply = self.server.handle(msg)
         data = compact_bytes(reply)
-        if self.positions.of(msg) == self.target and self.mutation is not None:
+        if self.target in (self.positions.of(msg), "*") and self.mutation is not None:
             self.applied = self.mutation(reply)
             data = self.applied.data
         for line in data.split(b"\n"):
