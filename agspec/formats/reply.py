@@ -1,4 +1,4 @@
-"""The one decoder of what a simulator sends (F-PROTOCOL-LINES, F-VALUES, F-PROTOCOL-ERRORS).
+"""The one decoder of what a simulator sends (F-PROTOCOL-LINES, F-VALUES, F-PROTOCOL-ERRORS, F-LIMITS-REPLIES).
 
 A reply is one line of a simulator's standard output, its bytes as read without the newline (an
 in-process adapter's reply is encoded to such a line first).  :func:`decode_line` turns it into a
@@ -9,8 +9,8 @@ JSON value or raises :class:`LineError` with the F-PROTOCOL-ERRORS code that nam
 * ``malformed_json`` — a blank line, or anything but one JSON text on the line;
 * ``duplicate_key`` — an object names a member twice (readers disagree on which one counts);
 * ``non_finite`` — ``NaN``, ``Infinity``, ``-Infinity``;
-* ``out_of_range`` — an integer beyond ±(2^53 − 1) (F-VALUES), or a number beyond binary64
-  (``1e400``);
+* ``out_of_range`` — an integer beyond ±(2^53 − 1), or a number beyond binary64 (``1e400``;
+  RES-NUMBER-RANGE);
 * ``too_deep`` — nesting the decoder cannot follow.  The nesting limit
   (:data:`~agspec.formats.jsonl.MAX_DEPTH`) is the caller's: the reply's shape
   (:mod:`agspec.formats.shape`) holds every member to it in the same walk that checks the types.

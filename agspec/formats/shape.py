@@ -1,7 +1,7 @@
 """Shapes: what a reader of a JSON value relies on, checked at simulation speed (F-PROTOCOL-SHAPE, F-VALUES).
 
 A full JSON Schema validation of a step reply takes tens of milliseconds (jsonschema), a hundred
-times the simulation step, so ``--validate-protocol`` asks for it explicitly.  Every reply is still
+times the simulation step, so ``--validate-protocol`` asks for it explicitly (RES-SHAPE-ALWAYS).  Every reply is still
 checked for its **shape**, compiled from the same schema (:func:`compile_shape`, no second schema
 written by hand): the JSON types (``type``, and the types of ``const``/``enum`` values), the required
 members, the members (``properties``, ``additionalProperties``), the items, the array lengths
@@ -12,7 +12,7 @@ not describe, and values of any type, are held to the nesting limit
 (:data:`~agspec.formats.jsonl.MAX_DEPTH`) instead.
 
 F-VALUES: a number is its value.  Where a shape requires an integer, a number with an integral
-value within ±(2^53 − 1) is one: :func:`conform` turns such a float (``6.0``, ``6e0``) into the
+value within ±(2^53 − 1) is one (RES-INTEGRAL-NUMBERS): :func:`conform` turns such a float (``6.0``, ``6e0``) into the
 integer in place, so every reader after it — comparison, invariants, expectations — sees one value.
 
 :func:`conform` runs a check compiled into closures (no per-node bookkeeping); only a value that
