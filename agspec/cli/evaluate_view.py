@@ -223,7 +223,8 @@ class Campaign:
             runs = [ep for ep in self.episodes if ep["scenario"] in self.scenarios and ep["index"] in self.indices]
             emit_json({"runs": runs, "summary": summarize([r for r in runs if not r.get("repeat")], metrics),
                        "comparisons": comparisons, "nondeterminism": self.findings,
-                       "published": [r for m in metrics for r in published.rows(m)] if with_published else []})
+                       "published": [r for m in metrics for r in published.rows(m)] if with_published else []},
+                      "evaluation")
             return
         for metric in metrics:
             table = Table(title=f"{metric}: mean ± 95 % half-width (1.96·s/√n) over {len(self.indices)} instances")

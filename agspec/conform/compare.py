@@ -22,6 +22,7 @@ from typing import Any, Mapping, Sequence
 from agspec import __version__
 from agspec.formats import limits
 from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
+from agspec.formats.schemas import self_check
 from agspec.ir.schemas import validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
@@ -251,6 +252,7 @@ def make_reproducer(*, ident: str, title: str, instance: Mapping[str, Any], exec
 def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    self_check("repro", data)  # F-SCHEMAS-SELF
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
     path = directory / f"{safe}.repro.json"
     path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",

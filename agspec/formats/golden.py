@@ -114,8 +114,9 @@ def dump(golden: Golden, path: str | Path) -> None:
     """Write ``golden`` atomically (a reader never sees half a file)."""
     path = Path(path)
     body = golden.body()
-    text = json.dumps({**body, "digest": _digest(body)}, separators=(",", ":"), sort_keys=True,
-                      ensure_ascii=False, allow_nan=False)
+    doc = {**body, "digest": _digest(body)}
+    schemas.self_check("golden", doc)  # F-SCHEMAS-SELF
+    text = json.dumps(doc, separators=(",", ":"), sort_keys=True, ensure_ascii=False, allow_nan=False)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".golden-", suffix=".tmp")
     try:

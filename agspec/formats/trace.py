@@ -13,6 +13,7 @@ from typing import IO, Any, Iterable, Mapping
 from agspec import SPEC_VERSION, __version__
 from agspec.formats import shape
 from agspec.formats.jsonl import LineWriter, dumps, read_values
+from agspec.formats.schemas import self_check
 
 TRACE_FORMAT = "agspec-trace/1"
 
@@ -38,6 +39,7 @@ class TraceWriter:
         self.ticks = 0
 
     def _write(self, record: Mapping[str, Any]) -> None:
+        self_check("trace", record)  # F-SCHEMAS-SELF
         self._out.write(record)
 
     def header(self, *, instance: Mapping[str, Any], fingerprint: str, execution_seed: int | None,
