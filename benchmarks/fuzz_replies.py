@@ -1,7 +1,8 @@
 """Long fuzz run of what a simulator sends (F-PROTOCOL-LINES, F-PROTOCOL-SHAPE, F-VALUES,
 RES-GOLDEN-IDENTITY): mutated reply lines tried, and wrong verdicts found.
 
-Usage:  python benchmarks/fuzz_replies.py [--examples 2000] [--seed 0] [--classes types,numbers,...] [--json]
+Usage:  python benchmarks/fuzz_replies.py [--examples 2000] [--seed 0] [--classes types,numbers,...]
+                                          [--traces 0] [--json]
 
 The bounded run is tests/test_reply_generator.py; this one draws many more mutations
 (tests/reply_mutations.py: types, numbers, keys, encoding, whitespace, lines) of the replies to
@@ -9,8 +10,9 @@ start, load, reset and the first steps of a small greedy episode, runs each thro
 of ``agspec conform`` (report file included) live and with a warm golden cache
 (tests/reply_judge.py), and counts the wrong verdicts: an exception, a ``harness`` failure, an
 incomplete or schema-invalid report, a changed verdict for a mutation that keeps the reply, another
-code than the one right code, a golden verdict other than the live one.  The target is 0; nothing
-here is asserted.  Run it with another build's ``agspec`` first on ``PYTHONPATH`` to measure that
+code than the one right code, a golden verdict other than the live one.  ``--traces N`` also re-spells
+every number of a valid and of a violating trace N times each (F-VALUES) and counts the ``agspec
+check`` verdicts that change.  The target is 0; nothing here is asserted.  Run it with another build's ``agspec`` first on ``PYTHONPATH`` to measure that
 build (the mutations and the judge are this checkout's).
 """
 
@@ -37,6 +39,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--classes", default=",".join(CLASSES))
     ap.add_argument("--show", type=int, default=3, help="wrong verdicts shown per class")
+    ap.add_argument("--traces", type=int, default=0, help="re-spelt copies of a valid and a violating trace")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     classes = [c for c in args.classes.split(",") if c]
@@ -59,6 +62,9 @@ def main() -> None:
                 if len(shown[klass]) < args.show:
                     label = mutation.label if mutation else "?"
                     shown[klass].append(f"{target} {label[:60]!r} (seed {seed}): {wrong[0][:200]}")
+    if args.traces:
+        tried["trace-values"], found["trace-values"] = _traces(args.traces, rng, shown["trace-values"])
+        classes = [*classes, "trace-values"]
     rows = [{"class": c, "tried": tried[c], "wrong": found[c]} for c in classes]
     rows.append({"class": "all", "tried": sum(tried.values()), "wrong": sum(found.values())})
     result = {"benchmark": "fuzz-replies", "examples": args.examples, "seed": args.seed,
@@ -69,6 +75,46 @@ def main() -> None:
         for klass, lines in shown.items():
             for line in lines:
                 print(f"  {klass}: {line}")
+
+
+def _traces(n: int, rng: random.Random, shown: list[str]) -> tuple[int, int]:
+    """F-VALUES on traces: every number of a valid and of a violating trace re-spelt; the verdict of
+    ``agspec check`` (its JSON record) must not change."""
+    import json
+
+    from click.testing import CliRunner
+
+    from agspec.campaign.check import check_file
+    from agspec.cli.main import cli
+    from reply_mutations import dump, respelt
+
+    tried = wrong = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        good = Path(tmp) / "good.jsonl"
+        CliRunner().invoke(cli, ["run", "coalition-easy", "--horizon", "8", "--trace", str(good), "--observations",
+                                 "--format", "json"], catch_exceptions=False)
+        records = [json.loads(line) for line in good.read_text("utf-8").splitlines()]
+        row = records[3]["state"]["shelves"][0]
+        row[next(iter(row))] += 50  # a stock beyond the shelf capacity
+        bad = Path(tmp) / "bad.jsonl"
+        bad.write_text("".join(json.dumps(r) + "\n" for r in records), encoding="utf-8")
+        for source in (good, bad):
+            want = {k: v for k, v in check_file(None, str(source)).items() if k != "file"}
+            lines = source.read_bytes().splitlines()
+            for _ in range(n):
+                seed = rng.randrange(2**32)
+                mutated = Path(tmp) / "respelt.jsonl"
+                share = random.Random(seed).choice([0.2, 1.0])
+                mutated.write_bytes(b"\n".join(dump(respelt(json.loads(line), random.Random(seed), share))
+                                                for line in lines) + b"\n")
+                got = {k: v for k, v in check_file(None, str(mutated)).items() if k != "file"}
+                tried += 1
+                if got != want:
+                    wrong += 1
+                    if len(shown) < 3:
+                        shown.append(f"{source.name} seed {seed}: ok {want.get('ok')} -> {got.get('ok')}; "
+                                     f"{[v['message'][:80] for v in got.get('violations', [])][:1]}")
+    return tried, wrong
 
 
 if __name__ == "__main__":

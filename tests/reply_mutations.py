@@ -315,6 +315,8 @@ NAMED: dict[str, tuple[str, Any, str]] = {
     "utf8-invalid": ("step:2", lambda r: dump({**r, "state": {**r["state"], "products": [
         {**r["state"]["products"][0], "recipe": Raw(b'"pair\xff"')}, *r["state"]["products"][1:]]}}), "bad_encoding"),
     "blank-lines-10000": ("step:2", lambda r: b"\n" * 10_000 + dump(r), "malformed_json"),
+    "seq-leading-zeros": ("step:2", lambda r: dump(r).replace(b'{"seq":', b'{"seq":00', 1), "malformed_json"),
+    "seq-5000-zeros": ("step:2", lambda r: dump(r).replace(b'{"seq":', b'{"seq":' + b"0" * 5000, 1), "malformed_json"),
     "state-twice": ("step:2", lambda r: dump(Pairs([(k, v) for k, v in r.items() if k != "state"][:3]
                                                     + [("state", {**r["state"], "wip": 99}), ("state", r["state"])]
                                                     + [(k, v) for k, v in r.items() if k != "state"][3:])),
