@@ -15,9 +15,8 @@ JSON value or raises :class:`LineError` with the F-PROTOCOL-ERRORS code that nam
   (:data:`~agspec.formats.jsonl.MAX_DEPTH`) is the caller's: the reply's shape
   (:mod:`agspec.formats.shape`) holds every member to it in the same walk that checks the types.
 
-The common case costs one C-speed JSON decode with a duplicate-key hook: the number and surrogate
-checks run only when a cheap scan of the text shows a long digit run, a three-digit exponent or a
-surrogate escape.  Every reply, whichever adapter brought it and whether or not a golden trace
+The cost is one C-speed JSON decode whose hooks see every object (duplicate keys) and every number
+(the F-VALUES range); the surrogate check runs only on lines that hold a surrogate escape.  Every reply, whichever adapter brought it and whether or not a golden trace
 matched it, is accepted or refused by this one function (RES-GOLDEN-IDENTITY).
 """
 
@@ -31,9 +30,7 @@ from typing import Any
 from agspec.formats.jsonl import MAX_DEPTH
 from agspec.formats.shape import MAX_SAFE_INTEGER
 
-# integer parts of 16 digits or more and exponents of three digits or more: where a number may leave
-# the F-VALUES range (the careful decode runs); a surrogate escape, where a string may hold a lone one
-_LONG_NUMBER = re.compile(r"(?<![.0-9])[0-9]{16}|[eE][+-]?[0-9]{3}")
+# a surrogate escape: where a string may hold a lone one (the careful check runs)
 _SURROGATE = re.compile(r"\\u[dD][89a-fA-F]")
 
 
@@ -78,8 +75,9 @@ def _constant(name: str) -> Any:
     raise _Refused("non_finite", f"{name} is not JSON (no NaN or Infinity)")
 
 
-_FAST = json.JSONDecoder(object_pairs_hook=_pairs, parse_constant=_constant)
-_CAREFUL = json.JSONDecoder(object_pairs_hook=_pairs, parse_constant=_constant, parse_int=_integer,
+# every number through a hook: a reply holds a few hundred, so this costs less than any scan of the
+# text for suspect numbers would
+_DECODER = json.JSONDecoder(object_pairs_hook=_pairs, parse_constant=_constant, parse_int=_integer,
                             parse_float=_float)
 
 
@@ -96,15 +94,13 @@ def decode_line(data: bytes) -> Any:
     if not text.strip(" \t\r"):
         raise LineError("malformed_json", "a blank line is not a reply (one JSON object per line)")
     try:
-        value = (_CAREFUL if _LONG_NUMBER.search(text) else _FAST).decode(text)
+        value = _DECODER.decode(text)
     except _Refused as exc:
         raise LineError(exc.code, exc.message) from None
     except json.JSONDecodeError as exc:
         raise LineError("malformed_json", f"not one JSON text ({exc.msg} at column {exc.colno})") from None
     except RecursionError:
         raise LineError("too_deep", f"nested deeper than {MAX_DEPTH} levels") from None
-    except ValueError as exc:  # an integer literal beyond the interpreter's digit limit
-        raise LineError("out_of_range", f"a number beyond the F-VALUES range ({exc})") from None
     if "\\u" in text and _SURROGATE.search(text):
         try:  # a lone surrogate escape decodes to a str that no UTF-8 text can hold
             json.dumps(value, ensure_ascii=False).encode("utf-8")

@@ -168,11 +168,24 @@ def _opaque(level: int) -> Callable[[Any], bool]:
     return lambda v: depth(v, budget) <= budget
 
 
-def _matcher(pattern: str | None) -> Callable[[str], Any] | None:
-    return re.compile(pattern).search if pattern is not None else None  # JSON Schema patterns are unanchored
+def _matcher(pattern: str | None) -> Callable[[str], bool] | None:
+    return _matches(pattern) if pattern is not None else None
 
 
-def _strings_match(match: Callable[[str], Any], values: Any) -> bool:
+@lru_cache(maxsize=None)
+def _matches(pattern: str) -> Callable[[str], bool]:
+    """Whether a string matches ``pattern`` (unanchored, as JSON Schema says); memoised, because the
+    same identifiers (robot, item, candidate ids) recur in every reply."""
+    search = re.compile(pattern).search
+
+    @lru_cache(maxsize=4096)
+    def matches(text: str) -> bool:
+        return search(text) is not None
+
+    return matches
+
+
+def _strings_match(match: Callable[[str], bool], values: Any) -> bool:
     return all(map(match, [x for x in values if type(x) is str]))
 
 
@@ -194,7 +207,7 @@ def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
     match = _matcher(s.pattern)
     if match is not None and not (types or frozenset()) & _CONTAINERS:  # a string with a pattern (or null)
         def string(v: Any) -> bool:
-            return (types is None or type(v) in types) and (type(v) is not str or match(v) is not None)
+            return (types is None or type(v) in types) and (type(v) is not str or match(v))
         memo[key_] = string
         return string
     required = frozenset(s.required)
@@ -257,7 +270,7 @@ def _build(s: Shape, level: int, memo: dict) -> Callable[[Any], bool]:
                 return set(map(type, v)) <= items_types and (items_match is None or _strings_match(items_match, v))
             return all(map(items, v))
         elif match is not None and tv is str:
-            return match(v) is not None
+            return match(v)
         return True
 
     memo[key_] = check
