@@ -149,3 +149,25 @@ def test_f_values_integral_numbers_are_integers_where_integers_are_required():
     assert shape.conform(decoded, f"protocol/{cmd}.reply").pointer == "/state/released"
     decoded["state"]["released"] = float(2**53)
     assert shape.conform(decoded, f"protocol/{cmd}.reply").code == "bad_field"
+
+
+@pytest.mark.parametrize("name", ["seq-leading-zeros", "seq-5000-zeros", "state-twice", "digits-5000"])
+def test_a_golden_trace_recorded_in_process_gives_the_live_verdict(tmp_path, name):
+    """Recorded from the trusted in-process reference (whose lines were never decoded, so the recorder
+    passes each through the one decoder itself), the golden trace changes no verdict either."""
+    from agspec.conform import runner
+    from agspec.conform.impl import ReferenceImpl
+    from agspec.conform.lockstep import Options
+
+    cache = str(tmp_path / "golden")
+    reference = ReferenceImpl()
+    try:
+        recorded = runner.run([item()], "reference", impl=reference,
+                              opts=Options(impl_spec="reference", golden_dir=cache))
+    finally:
+        reference.close()
+    assert recorded.records[0]["outcome"] == "pass" and any(Path(cache).rglob("*.json"))
+    target = NAMED[name][0]
+    live = run(target, f"named:{name}", 0, None, tmp_path / "live.jsonl")
+    warm = run(target, f"named:{name}", 0, cache, tmp_path / "warm.jsonl")
+    assert verdict(live[2]) == verdict(warm[2]) and verdict(live[2])[2] == NAMED[name][2]

@@ -129,7 +129,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts(),
                            known=resume[0] if resume else 0, summary=recorded.summary if resume else None)
         observe = checker.observe
-        recorder = golden.Recorder(item) if directory is not None else None
+        recorder = golden.Recorder(item, checked=not impl.trusted) if directory is not None else None
         if recorder is not None:
             def observe(step: driver.Step) -> bool:
                 stop = checker.observe(step)
