@@ -110,3 +110,10 @@ def test_the_documents_of_a_failing_conform_run_validate(tmp_path):
     assert read_report(tmp_path / "r.jsonl")[1] == []
     repro = next(tmp_path.glob("*.repro.json"))
     assert schemas.validate("repro", json.loads(repro.read_text("utf-8"))) == []
+
+
+def test_a_traces_later_tick_records_are_held_to_the_schemas_shape(tmp_path):
+    writer = TraceWriter(tmp_path / "t.jsonl")
+    writer.ticks = 10  # past the records validated whole
+    with pytest.raises(schemas.SchemaDrift, match="shape"):
+        writer._write({"type": "tick", "t": 10, "actions": {}, "events": [], "state": {"t": "eleven"}})

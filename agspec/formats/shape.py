@@ -23,6 +23,8 @@ the first problem).
 from __future__ import annotations
 
 import re
+import copy
+import os
 from dataclasses import dataclass, field
 from functools import lru_cache
 from itertools import repeat
@@ -30,7 +32,7 @@ from typing import Any, Callable
 
 from agspec.formats.jsonl import MAX_DEPTH, depth
 from agspec.formats.pointer import join as json_pointer
-from agspec.formats.schemas import inlined, json_type
+from agspec.formats.schemas import SELF_CHECK, SchemaDrift, inlined, json_type
 
 # F-VALUES: the interoperable integer range of I-JSON (RFC 7493 §2.2), exact in binary64
 MAX_SAFE_INTEGER = 2**53 - 1
@@ -373,4 +375,14 @@ def conform(value: Any, name: str) -> Problem | None:
     return _locate(value, compile_shape(name))
 
 
-__all__ = ["MAX_SAFE_INTEGER", "Shape", "Problem", "compile_shape", "checker", "conform"]
+def self_check_shape(name: str, doc: Any) -> None:
+    """F-SCHEMAS-SELF for the many records of a stream (a trace's tick records): in self-check mode,
+    :class:`~agspec.formats.schemas.SchemaDrift` when ``doc`` lacks the shape of schema ``name`` — the
+    schema's types, members, lengths and identifiers, at a thousandth of a full validation's cost."""
+    if os.environ.get(SELF_CHECK) and not checker(name)(doc):
+        problem = _locate(copy.deepcopy(doc), compile_shape(name))
+        raise SchemaDrift(f"a document agspec wrote lacks the shape of schemas/{name}.schema.json: "
+                          f"{problem or 'an integral float where an integer is required'}")
+
+
+__all__ = ["MAX_SAFE_INTEGER", "Shape", "Problem", "compile_shape", "checker", "conform", "self_check_shape"]
