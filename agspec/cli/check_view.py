@@ -18,6 +18,7 @@ from rich.table import Table
 from agspec.campaign.check import EXIT_HARNESS, check_file, exit_code, expand
 from agspec.campaign.executor import Done, ExecutorError, ExecutorSpec, Task, run_ordered
 from agspec.cli.common import emit_json, fail, stderr, stdout
+from agspec.formats.schemas import self_check
 
 VERDICT = {0: "[green]ok[/]", 1: "[bold red]fails[/]", 2: "[bold red]unreadable[/]", 3: "[bold magenta]error[/]"}
 COUNTED = {0: "ok", 1: "failed", 2: "unreadable", 3: "error"}
@@ -44,6 +45,7 @@ def check_many_command(targets: Sequence[str], fmt: str, campaign: ExecutorSpec,
                     "file": paths[i], "ok": False, "exit": EXIT_HARNESS, "error": outcome.message()}
                 records.append(record)
                 if report is not None:
+                    self_check("check-report", {"type": "trace", **record})  # F-SCHEMAS-SELF
                     report.write(json.dumps({"type": "trace", **record}, ensure_ascii=False) + "\n")
                     report.flush()
     except ExecutorError as exc:
@@ -55,12 +57,14 @@ def check_many_command(targets: Sequence[str], fmt: str, campaign: ExecutorSpec,
     code = exit_code(records)
     counts = {name: sum(1 for r in records if r["exit"] == c) for c, name in COUNTED.items()}
     if report_path:
+        footer = {"type": "footer", "traces": len(records), "counts": counts, "exit_code": code}
+        self_check("check-report", footer)  # F-SCHEMAS-SELF
         with open(report_path, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps({"type": "footer", "traces": len(records), "counts": counts, "exit_code": code}) + "\n")
+            fh.write(json.dumps(footer) + "\n")
     if fmt == "json":
         # the timing is the one non-deterministic part of the output; the report file carries none
         emit_json({"traces": records, "counts": counts, "exit_code": code,
-                   "timing": timing(sum(r.get("ticks", 0) for r in records), seconds)})
+                   "timing": timing(sum(r.get("ticks", 0) for r in records), seconds)}, "check")
         return code
     table = Table(title=f"agspec check · {len(records)} traces")
     for col in ("Trace", "Ticks", "Checks evaluated", "Violations", "Verdict"):

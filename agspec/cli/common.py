@@ -10,6 +10,8 @@ import click
 from rich.console import Console
 from rich.text import Text
 
+from agspec.formats.schemas import self_check
+
 # Exit codes (spec/09-formats.md, F-EXIT-CODES). Categorical, never counts.
 EXIT_OK = 0
 EXIT_INVALID = 1  # invalid input / nonconformant implementation / failed check
@@ -21,8 +23,10 @@ stdout = Console(highlight=False, soft_wrap=True)
 stderr = Console(stderr=True, highlight=False, soft_wrap=True)
 
 
-def emit_json(data: Any) -> None:
-    """Print machine-readable JSON on stdout (no rich markup)."""
+def emit_json(data: Any, schema: str) -> None:
+    """Print machine-readable JSON on stdout (no rich markup); ``schema`` names its schema in
+    ``schemas/`` (every ``--format json`` output has one, F-SCHEMAS-SELF)."""
+    self_check(schema, data)
     sys.stdout.write(json.dumps(data, indent=2, sort_keys=False, ensure_ascii=False) + "\n")
     sys.stdout.flush()
 

@@ -106,7 +106,7 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
                            require=required, golden_dir=str(golden_dir) if golden_dir else None)
     if fmt == "json":
-        emit_json(view.json_summary(summary))
+        emit_json(view.json_summary(summary), "conform")
     else:
         view.print_summary(summary, impl_spec)
     raise SystemExit(summary.exit_code)
@@ -179,7 +179,7 @@ def trace_validate(trace_path: str, fmt: str) -> None:
     io_error = any(d.code in ("AG001", "AG002") and d.line is None for d in diags)
     if fmt == "json":
         emit_json({"file": trace_path, "records": len(records), "valid": not diags,
-                   "diagnostics": [_diag_json(d) for d in diags]})
+                   "diagnostics": [_diag_json(d) for d in diags]}, "trace-validate")
     else:
         for d in diags[:50]:
             stderr.print(d.render(), markup=False)

@@ -227,7 +227,7 @@ def show_coverage(suite_dir: str | None, fmt: str, episodes: int, ticks: int) ->
     cov["unreachable"] = variants["unreachable"]
     cov["uncovered"] = cov["uncovered"] + values["uncovered"] + variants["uncovered"]
     if fmt == "json":
-        emit_json(cov)
+        emit_json(cov, "coverage")
     else:
         from agspec.spec_index import spec_titles
 
@@ -299,7 +299,7 @@ def check_trace_command(path: str, fmt: str) -> int:
     fatal = [d for d in diags if not d.code.startswith("AG6")]  # unreadable records: invariants cannot run
     if fatal:
         if fmt == "json":
-            emit_json({"file": path, "ok": False, "diagnostics": [diag_record(d) for d in diags]})
+            emit_json({"file": path, "ok": False, "diagnostics": [diag_record(d) for d in diags]}, "check")
         else:
             for d in fatal[:30]:
                 stderr.print(d.render(), markup=False)
@@ -313,7 +313,7 @@ def check_trace_command(path: str, fmt: str) -> int:
     whole = verify_whole(records, path, trace_diag)
     ok = report.ok and not whole
     if fmt == "json":
-        emit_json({**report_record(path, report, diags, whole, paired_records(records)), "timing": speed})
+        emit_json({**report_record(path, report, diags, whole, paired_records(records)), "timing": speed}, "check")
         return EXIT_OK if ok else EXIT_INVALID
     table = Table(title=f"{path}: {report.ticks} ticks, {report.agents} agents, {report.states} states, "
                         f"{report.total_checks} checks evaluated, {speed['ticks_per_s'] or 0:.0f} ticks/s")

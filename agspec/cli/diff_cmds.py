@@ -147,7 +147,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         code = EXIT_NONDETERMINISTIC
     report["exit"] = code
     if quiet:
-        emit_json(report)
+        emit_json(report, "diff")
     else:
         c = report["compared"]
         summary = (f"level {report['level']}: {c['episodes']} episode(s), {c['ticks']} ticks compared"

@@ -127,7 +127,7 @@ def validate(files: tuple[str, ...], fmt: str, search_paths: tuple[Path, ...], n
         status = "unreadable" if doc.text is None else ("invalid" if errors else "valid")
         rows.append((doc.file or "<input>", doc.kind or "-", errors, warnings, status))
     if fmt == "json":
-        emit_json([diagnostic_json(d) for d in all_diags])
+        emit_json([diagnostic_json(d) for d in all_diags], "diagnostics")
     else:
         print_diagnostics(all_diags, {doc.file: doc.text for doc in docs})
         # diagnostics (stderr) then the summary (stdout): flushed in that order, so `2>&1 | less` keeps it

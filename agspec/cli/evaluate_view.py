@@ -274,7 +274,8 @@ class Campaign:
             emit_json({"runs": runs, "summary": summary, "instances": instances, "complete": not problems,
                        "incomplete": [p.problem() for p in problems],
                        "comparisons": comparisons, "nondeterminism": self.findings,
-                       "published": [r for m in metrics for r in published.rows(m)] if with_published else []})
+                       "published": [r for m in metrics for r in published.rows(m)] if with_published else []},
+                      "evaluation")
             return bool(problems)
         for metric in metrics:
             rows = layout(self.episodes, labels, self.scenarios, metric, with_published, planned)

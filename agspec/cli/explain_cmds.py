@@ -61,7 +61,7 @@ def explain(ids: tuple[str, ...], fmt: str) -> None:
              "; `agspec explain M-` lists the metrics, `R-` the rules, `AG` the diagnostic codes"), EXIT_INVALID)
     if fmt == "json":
         emit_json({"entries": [_as_json(e) for e in found],
-                   "listings": [{"prefix": p, "entries": [_as_json(e) for e in es]} for p, es in listings]})
+                   "listings": [{"prefix": p, "entries": [_as_json(e) for e in es]} for p, es in listings]}, "explain")
         return
     for entry in found:
         _show(entry)

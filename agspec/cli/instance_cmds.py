@@ -104,7 +104,7 @@ def instance(scenario: str, index: int | None, seed: int | None, execution_seed:
     """Realize SCENARIO (official name or .ag/.json file) into a self-contained instance IR."""
     inst = _make(scenario, index, seed, execution_seed)
     if output is None:
-        emit_json(inst)
+        emit_json(inst, "instance")
         return
     _write(output, _json_text(inst))
     stderr.print(f"wrote {output}: {inst['id']}  {ir_fingerprint(inst)}", markup=False)
@@ -152,7 +152,7 @@ def fingerprint(files: tuple[str, ...], fmt: str) -> None:
             continue
         rows.append({"path": target, "kind": ir.get("kind"), "id": ir.get("id"), "fingerprint": fp})
     if fmt == "json":
-        emit_json(rows)
+        emit_json(rows, "fingerprint")
     else:
         for row in rows:
             stdout.print(f"{row['fingerprint']}  {row['path']}", markup=False)
@@ -228,7 +228,7 @@ def catalogue_list(fmt: str) -> None:
             "fingerprint": ir_fingerprint(scenario),
         })
     if fmt == "json":
-        emit_json(rows)
+        emit_json(rows, "catalogue-list")
         return
     table = Table(title="AssemblyGrid v1 catalogue", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False, padding=(0, 1), collapse_padding=True,
                   caption="the name is what commands take (agspec run NAME); "

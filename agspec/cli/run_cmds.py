@@ -155,12 +155,12 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
             writer.close()
     metrics = result.metrics
     if fmt == "json":
-        emit_json({"instance": instance["id"], "controller": controller, "metrics": metrics})
+        emit_json({"instance": instance["id"], "controller": controller, "metrics": metrics}, "run-result")
         return
     if fmt == "result-v1":
         from agspec.interop.original import result_record
 
-        emit_json(result_record(instance, controller, metrics))
+        emit_json(result_record(instance, controller, metrics), "original-result-v1")
         return
     table = Table(title=f"{instance['id']} · {'policy' if spec else 'controller'} {controller} · {metrics['ticks']} ticks"
                   + (f" · {result.illegal_actions} masked actions run as idle" if result.illegal_actions else ""),
@@ -270,7 +270,7 @@ def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
         except EpisodeFailures as exc:
             fail(f"{exc}; nothing was written", EXIT_HARNESS)
     if fmt == "json":
-        emit_json(report)
+        emit_json(report, "reproduction")
         return
     table = Table(title=f"paper reproduction ({report['episodes']} episodes)")
     for col in ("table", "scenario", "controller", "metric", "ours", "paper", "mark"):

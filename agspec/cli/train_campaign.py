@@ -68,7 +68,7 @@ def run_plan(text: str, out: Path, settings: Mapping[str, Any], executor: Any, g
         fail(str(exc))
     failed = [r for r in records if r["status"] != "complete" or (r.get("evaluation") or {}).get("errors")]
     if fmt == "json":
-        emit_json({"plan": plan, "runs": records})
+        emit_json({"plan": plan, "runs": records}, "training-campaign")
     else:
         table = Table(title=f"campaign {out}: {total} runs")
         for col in ("run", "status", "steps", "evaluation", "n", "delivered", "completion"):

@@ -110,14 +110,14 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, out: Pa
     except ConfigError as exc:
         fail(str(exc), EXIT_USAGE)
     if print_config:
-        emit_json(config)
+        emit_json(config, "training-config")
         return
     try:
         summary = _run(config, out, resume)
     except MissingExtra as exc:
         fail(str(exc), EXIT_USAGE)
     if fmt == "json":
-        emit_json(summary)
+        emit_json(summary, "training-run")
         return
     _show(summary, out)
 

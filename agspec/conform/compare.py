@@ -26,6 +26,7 @@ from agspec.conform.eventdiff import describe_row, differing, event_diff, event_
 from agspec.formats import limits
 from agspec.formats.actions import describe as describe_action
 from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
+from agspec.formats.schemas import self_check
 from agspec.ir.schemas import validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
@@ -327,6 +328,7 @@ def make_reproducer(*, ident: str, title: str, instance: Mapping[str, Any], exec
 def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    self_check("repro", data)  # F-SCHEMAS-SELF
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
     path = directory / f"{safe}.repro.json"
     path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",

@@ -41,6 +41,7 @@ from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
+from agspec.formats import reply as reply_format
 
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
@@ -57,6 +58,9 @@ class Implementation:
     """Common protocol session logic: seq numbering, reply checks, schema validation, restart."""
 
     spec: str = ""
+    # replies built by agspec itself (the reference interpreter in process): not decoded, their shape
+    # not checked (F-PROTOCOL-SHAPE; a test holds the reference's replies to it)
+    trusted: bool = False
 
     def __init__(self, *, validate: bool = False, on_message: MessageHook | None = None):
         self.validate = validate
@@ -114,6 +118,8 @@ class Implementation:
         cmd = msg["cmd"]
         try:
             raw = receive()
+            # F-GOLDEN: only a line the one decoder accepts can have the golden text digest
+            # (RES-GOLDEN-IDENTITY: the golden line itself passed decode_line and check_reply)
             if golden is not None and _golden_text(raw, msg["seq"]) == golden[0]:
                 return MATCHED
             reply = self._decoded(msg, raw)
@@ -123,11 +129,20 @@ class Implementation:
                 problems = protocol.validate_reply(cmd, reply)
                 if problems:
                     raise ProtocolError("schema", f"the {cmd} reply violates schemas/protocol/{cmd}.reply.schema.json: "
-                                        + "; ".join(str(p) for p in problems[:3]), detail=[str(p) for p in problems])
-            protocol.check_reply(cmd, reply, self.capabilities if cmd != "start" else None)
+                                        + "; ".join(str(p) for p in problems[:3]), detail=[str(p) for p in problems],
+                                        pointer=problems[0].pointer)
+            if self.trusted:
+                protocol.check_outcome(cmd, reply, self.capabilities if cmd != "start" else None)
+            else:
+                protocol.check_reply(cmd, reply, self.capabilities if cmd != "start" else None)
         except ProtocolError as exc:
             if not exc.stderr:
                 exc.stderr = self.stderr_tail()
+            self._fail()
+            raise
+        except protocol.Unsupported:  # a declined instance: the session goes on (F-PROTOCOL-UNSUPPORTED)
+            raise
+        except BaseException:  # never leave a session whose replies are out of step with its requests
             self._fail()
             raise
         self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
@@ -139,19 +154,26 @@ class Implementation:
         return Pipeline(self, steps, window=1)
 
     def exchange(self, msg: dict[str, Any], timeout: float | None) -> Reply:
-        """Send one message and return its decoded reply (seq checked), without the protocol's reply
-        checks — for peers that speak another message set over the same transport (F-POLICY-PROTOCOL)."""
-        return self._decoded(msg, self._exchange(msg, timeout))
+        """Send one message and return its decoded reply (seq checked, nesting bounded), without the
+        protocol's reply checks — for peers that speak another message set over the same transport
+        (F-POLICY-PROTOCOL)."""
+        reply = self._decoded(msg, self._exchange(msg, timeout))
+        if jsonl.depth(reply) > jsonl.MAX_DEPTH:
+            raise ProtocolError("too_deep", f"the {msg['cmd']} reply nests deeper than {jsonl.MAX_DEPTH} levels",
+                                stderr=self.stderr_tail())
+        return reply
 
     def _decoded(self, msg: Mapping[str, Any], raw: Any) -> Reply:
-        """The reply object of what ``_exchange`` returned: a line is decoded strictly; either must be
-        an object echoing the request's seq."""
-        if isinstance(raw, bytes):  # a process's line, as read (invalid UTF-8 replaced, as always)
-            raw = raw.decode("utf-8", "replace")
+        """The reply object of what ``_exchange`` returned: a line (bytes; text is encoded first) goes
+        through the one decoder (:func:`agspec.formats.reply.decode_line`); either must be an object
+        echoing the request's seq.  Its nesting is bounded by the shape check that follows."""
         if isinstance(raw, str):
+            raw = _line_of(raw, msg["cmd"], self.stderr_tail)
+        if isinstance(raw, bytes):
             raw = _decode(raw, msg["cmd"], self.stderr_tail)
         if not isinstance(raw, dict):
-            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object: {raw!r:.80}")
+            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object but "
+                                                  f"{protocol.json_type(raw)}", stderr=self.stderr_tail())
         _check_seq(msg, raw, self._seq)
         return raw
 
@@ -257,17 +279,11 @@ class PythonImpl(Implementation):
             tb = traceback.format_exc()
             self._errors.append(tb)
             raise ProtocolError("exception", f"the adapter raised {type(exc).__name__}: {exc}", stderr=tb)
-        if self.isolate:
+        if self.isolate:  # the line a process would have sent, decoded as any other (F-PROTOCOL-LINES)
             try:
-                text = protocol.encode(reply)
-            except RecursionError:
-                raise ProtocolError("too_deep", f"the {msg['cmd']} reply nests deeper than {protocol.MAX_DEPTH} levels")
-            except ValueError as exc:
-                code = "non_finite" if "Out of range float" in str(exc) else "malformed_json"
-                raise ProtocolError(code, f"the {msg['cmd']} reply is not plain JSON: {exc}")
-            except TypeError as exc:
-                raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not plain JSON: {exc}")
-            reply = _decode(text, msg["cmd"], "")
+                return reply_format.encode_in_process(reply)
+            except reply_format.LineError as exc:
+                raise ProtocolError(exc.code, f"the {msg['cmd']} reply is not plain JSON: {exc.message}")
         return reply
 
     def _shutdown(self) -> None:
@@ -284,6 +300,7 @@ class ReferenceImpl(PythonImpl):
 
         kw.setdefault("isolate", False)  # fresh dicts on every reply: nothing to isolate
         super().__init__(lambda: Server(observations=observations, masks=masks), spec="reference", **kw)
+        self.trusted = not self.isolate
 
     @property
     def simulator(self):
@@ -291,19 +308,24 @@ class ReferenceImpl(PythonImpl):
         return self.adapter.sim if self.adapter is not None else None
 
 
-def _decode(text: str, cmd: str, stderr: str | Callable[[], str]) -> Any:
-    """One reply line through the strict decoder; every malformation is the simulator's protocol error."""
-    shown = text if len(text) <= 120 else text[:117] + "..."
+def _decode(line: bytes, cmd: str, stderr: str | Callable[[], str]) -> Any:
+    """One reply line through the one decoder (F-PROTOCOL-LINES); every malformation is the simulator's
+    protocol error, shown with the start of the line."""
     try:
-        return protocol.loads(text)
-    except protocol.NonFinite as exc:
-        code, why = "non_finite", str(exc)
-    except protocol.TooDeep as exc:
-        code, why = "too_deep", str(exc)
-    except json.JSONDecodeError as exc:
-        code, why = "malformed_json", f"not JSON ({exc.msg})"
-    raise ProtocolError(code, f"the {cmd} reply is malformed: {why}: {shown!r}",
-                        stderr=stderr() if callable(stderr) else stderr)
+        return reply_format.decode_line(line)
+    except reply_format.LineError as exc:
+        shown = line[:117].decode("utf-8", "backslashreplace") + ("..." if len(line) > 117 else "")
+        raise ProtocolError(exc.code, f"the {cmd} reply is malformed: {exc.message}: {shown!r}",
+                            stderr=stderr() if callable(stderr) else stderr) from None
+
+
+def _line_of(text: str, cmd: str, stderr: str | Callable[[], str]) -> bytes:
+    """A reply given as text: its UTF-8 line (a lone surrogate has none)."""
+    try:
+        return text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ProtocolError("bad_encoding", f"the {cmd} reply holds a lone surrogate, which is not Unicode text",
+                            stderr=stderr() if callable(stderr) else stderr) from None
 
 
 def _golden_text(raw: Any, seq: int) -> str | None:
@@ -323,13 +345,13 @@ def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -
     """F-PROTOCOL: the reply echoes the request's seq; an earlier one is out of order."""
     if "seq" not in reply:
         raise ProtocolError("missing_field", f"the {msg['cmd']} reply has no `seq`")
-    got = reply["seq"]
-    if got == msg["seq"] and type(got) is type(msg["seq"]):
+    got, sent = reply["seq"], msg["seq"]
+    if got == sent and isinstance(got, bool) == isinstance(sent, bool):  # F-VALUES: 4.0 echoes 4
         return
-    if isinstance(got, int) and not isinstance(got, bool) and 0 < got < current:
+    if isinstance(got, (int, float)) and not isinstance(got, bool) and 0 < got < current:
         raise ProtocolError("out_of_order", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {got} "
                                             "of an earlier request")
-    raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)}")
+    raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)[:80]}")
 
 
 # ============================================================================================ subprocess
@@ -460,9 +482,9 @@ class SubprocessImpl(Implementation):
             if raw is None:
                 self._lines.put(None)
                 raise self._exit_error(f"while the harness waited for the {msg['cmd']} reply")
-            line = raw.strip()
-            if line:
-                return line  # bytes: decoded and checked by _finish (F-GOLDEN may match it undecoded)
+            # F-PROTOCOL-LINES: every line is a reply, a blank one too (refused by the decoder); bytes,
+            # decoded and checked by _finish (F-GOLDEN may match it undecoded)
+            return raw[:-1] if raw.endswith(b"\n") else raw
 
     def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> Pipeline:
         """F-GOLDEN: up to PIPELINE step requests in flight (one reply per request, in request order,

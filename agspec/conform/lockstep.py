@@ -158,7 +158,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         checker = _Checker(item, impl, opts, res, caps.get("privileged_state", False), pair.parts(),
                            known=resume[0] if resume else 0, summary=recorded.summary if resume else None)
         observe = checker.observe
-        recorder = golden.Recorder(item) if directory is not None else None
+        recorder = golden.Recorder(item, checked=not impl.trusted) if directory is not None else None
         if recorder is not None:
             def observe(step: driver.Step) -> bool:
                 stop = checker.observe(step)
@@ -251,7 +251,7 @@ def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> N
     res.outcome = "error"
     res.message = str(exc)
     res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
-                   "stderr": exc.stderr or None}
+                   "pointer": getattr(exc, "pointer", None), "stderr": exc.stderr or None}
     res.rendered = _render_error(item, exc, tick)
 
 

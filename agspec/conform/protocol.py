@@ -15,8 +15,9 @@ from __future__ import annotations
 import json
 from typing import Any, Mapping
 
+from agspec.formats import shape
 from agspec.formats.jsonl import MAX_DEPTH, NonFinite, TooDeep, depth, loads
-from agspec.formats.schemas import SchemaProblem, schema_id, validate, validator
+from agspec.formats.schemas import SchemaProblem, json_type, schema_id, validate, validator
 
 PROTOCOL = "agspec-protocol/1"
 COMMANDS = ("start", "load", "reset", "step", "stop")
@@ -32,11 +33,15 @@ CODES: dict[str, tuple[str, str]] = {
     "eof": (CRASH, "the simulator closed its stdout before replying"),
     "exception": (CRASH, "the in-process adapter raised an exception"),
     "timeout": (TIMEOUT, "no reply within the per-request timeout"),
-    "malformed_json": (PROTOCOL_ERROR, "a line on stdout is not a JSON object"),
+    "malformed_json": (PROTOCOL_ERROR, "a line on stdout is not one JSON object (a blank line included)"),
+    "bad_encoding": (PROTOCOL_ERROR, "a reply is not UTF-8, or a string in it holds a lone surrogate"),
+    "duplicate_key": (PROTOCOL_ERROR, "an object in a reply names a member twice"),
+    "out_of_range": (PROTOCOL_ERROR, "a number beyond the F-VALUES range (an integer beyond ±(2^53 − 1), "
+                                     "or beyond binary64)"),
     "wrong_seq": (PROTOCOL_ERROR, "a reply does not echo the seq of any request sent"),
     "out_of_order": (PROTOCOL_ERROR, "a reply echoes the seq of an earlier request"),
     "missing_field": (PROTOCOL_ERROR, "a reply lacks a field the protocol or the declared capabilities require"),
-    "bad_field": (PROTOCOL_ERROR, "a reply field has the wrong type or value (e.g. t not advanced by one)"),
+    "bad_field": (PROTOCOL_ERROR, "a reply field has the wrong type or shape (F-PROTOCOL-SHAPE), or a wrong value"),
     "error_reply": (PROTOCOL_ERROR, "the simulator answered ok: false"),
     "handshake": (PROTOCOL_ERROR, "the start reply announces another protocol version"),
     "schema": (PROTOCOL_ERROR, "a message violates its schema (--validate-protocol)"),
@@ -50,16 +55,18 @@ class ProtocolError(Exception):
     """An implementation failed to speak the protocol (outcome ``error``, F-PROTOCOL-ERRORS).
 
     ``kind`` is the category (``crash``, ``timeout``, ``protocol``), ``code`` the precise cause (a key
-    of :data:`CODES`), ``stderr`` the simulator's captured standard error, if any.
+    of :data:`CODES`), ``stderr`` the simulator's captured standard error, if any, ``pointer`` the
+    JSON Pointer of the offending member of the reply, if one is to blame.
     """
 
-    def __init__(self, code: str, message: str, *, stderr: str = "", detail: Any = None):
+    def __init__(self, code: str, message: str, *, stderr: str = "", detail: Any = None, pointer: str | None = None):
         super().__init__(message)
         self.code = code
         self.kind = CODES.get(code, (PROTOCOL_ERROR, ""))[0]
         self.message = message
         self.stderr = stderr
         self.detail = detail
+        self.pointer = pointer
 
     def __str__(self) -> str:
         return f"{self.kind}/{self.code}: {self.message}"
@@ -119,31 +126,40 @@ def encode(msg: Any) -> str:
 
 
 def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = None) -> None:
-    """The structural checks every harness needs, with or without --validate-protocol.
+    """The checks of every reply, with or without --validate-protocol (F-PROTOCOL-ERRORS).
 
-    Raises :class:`ProtocolError`: ``error_reply`` for ``ok: false``; ``missing_field`` when a field
-    the command or a declared capability requires is absent; ``bad_field`` for a wrong type.
+    Raises :class:`ProtocolError`: ``handshake`` for a start reply of another protocol; ``missing_field``
+    / ``bad_field`` / ``too_deep`` when the reply does not have its schema's shape (F-PROTOCOL-SHAPE,
+    with the JSON Pointer; an integral float where an integer is required is made one, F-VALUES);
+    ``error_reply`` for ``ok: false``; ``missing_field`` when a field a declared capability requires
+    is absent.  Raises :class:`Unsupported` for a declined instance (F-PROTOCOL-UNSUPPORTED).
     """
     if not isinstance(reply, dict):
         raise ProtocolError("malformed_json", f"the {cmd} reply is not a JSON object")
-    ok = reply.get("ok")
-    if ok is False:
+    if cmd == "start" and reply.get("ok") is True and reply.get("protocol") != PROTOCOL:
+        # another protocol version may well have another shape: say that first
+        raise ProtocolError("handshake", f"the simulator speaks {_shown(reply.get('protocol'))}, the harness {PROTOCOL!r}")
+    problem = shape.conform(reply, f"protocol/{cmd}.reply")
+    if problem is not None:
+        where = f"field {problem.pointer}" if problem.pointer else "reply"
+        raise ProtocolError(problem.code, f"the {cmd} reply {where} {problem.message}", pointer=problem.pointer)
+    check_outcome(cmd, reply, capabilities)
+
+
+def check_outcome(cmd: str, reply: Mapping[str, Any], capabilities: Mapping[str, Any] | None = None) -> None:
+    """What a reply of the right shape says: ``error_reply`` / :class:`Unsupported` for ``ok: false``,
+    ``missing_field`` when a field a declared capability requires is absent.  Alone, for replies agspec
+    built itself (the in-process reference); after the shape check for everything else."""
+    if reply.get("ok") is False:
         err = reply.get("error") if isinstance(reply.get("error"), dict) else {}
-        if err.get("code") == UNSUPPORTED and cmd in UNSUPPORTED_COMMANDS:
-            reason = err.get("message")
-            raise Unsupported(cmd, reason if isinstance(reason, str) and reason.strip() else "(no reason given)")
-        raise ProtocolError("error_reply", f"the simulator refused `{cmd}`: "
-                                           f"[{err.get('code', '?')}] {err.get('message', '(no message)')}",
+        code, message = err.get("code"), err.get("message")
+        if code == UNSUPPORTED and cmd in UNSUPPORTED_COMMANDS:
+            raise Unsupported(cmd, message if isinstance(message, str) and message.strip() else "(no reason given)")
+        raise ProtocolError("error_reply", f"the simulator refused `{cmd}`: [{code}] {message or '(no message)'}",
                             detail=err)
-    if ok is not True:
-        raise ProtocolError("missing_field" if "ok" not in reply else "bad_field",
-                            f"the {cmd} reply needs `ok`: true or false")
     caps = capabilities or {}
     need: list[str] = []
-    if cmd == "start":
-        need = ["protocol", "implementation", "capabilities"]
-    elif cmd in ("reset", "step"):
-        need = ["t"]
+    if cmd in ("reset", "step"):
         if caps.get("privileged_state", True):
             need.append("state")
         if caps.get("events", True):
@@ -152,19 +168,15 @@ def check_reply(cmd: str, reply: Any, capabilities: Mapping[str, Any] | None = N
             need.append("observations")
         if caps.get("masks"):
             need.append("masks")
-        if cmd == "step":
-            need.append("done")
     missing = [k for k in need if k not in reply]
     if missing:
-        raise ProtocolError("missing_field", f"the {cmd} reply lacks " + ", ".join(f"`{k}`" for k in missing))
-    types = {"t": int, "state": dict, "events": list, "observations": dict, "masks": dict, "done": bool,
-             "implementation": dict, "capabilities": dict, "applied": dict}
-    for key, typ in types.items():
-        if key in reply and (not isinstance(reply[key], typ) or (typ is int and isinstance(reply[key], bool))):
-            raise ProtocolError("bad_field", f"the {cmd} reply field `{key}` must be {typ.__name__}, "
-                                             f"found {type(reply[key]).__name__}")
-    if cmd == "start" and reply.get("protocol") != PROTOCOL:
-        raise ProtocolError("handshake", f"the simulator speaks {reply.get('protocol')!r}, the harness {PROTOCOL!r}")
+        raise ProtocolError("missing_field", f"the {cmd} reply lacks " + ", ".join(f"`{k}`" for k in missing)
+                            + " (a declared capability requires it)", pointer="/" + missing[0])
+
+
+def _shown(value: Any) -> str:
+    text = repr(value) if isinstance(value, (str, int, float, bool, type(None))) else f"a {type(value).__name__}"
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 CAPABILITIES = ("observations", "masks", "privileged_state", "events", "diagnostic_state")
@@ -193,6 +205,6 @@ def validate_reply(cmd: str, msg: Any) -> list[SchemaProblem]:
 __all__ = [
     "PROTOCOL", "COMMANDS", "CODES", "MAX_DEPTH", "NonFinite", "TooDeep", "loads", "depth",
     "Unsupported", "UNSUPPORTED", "GAVE_UP", "ProtocolError", "SchemaProblem", "request", "start", "load", "reset", "step",
-    "stop", "error_reply", "encode", "check_reply", "normalize_capabilities", "validator", "validate",
+    "stop", "error_reply", "encode", "check_reply", "check_outcome", "normalize_capabilities", "json_type", "validator", "validate",
     "validate_request", "validate_reply", "schema_id",
 ]

@@ -26,7 +26,9 @@ from typing import Any, Mapping
 from agspec.formats import jsonl, limits, schemas
 
 GOLDEN_FORMAT = "agspec-golden/1"
-_SEQ_FIRST = re.compile(rb'\{"seq":(\d+),')
+# the seq as the decoder reads it: an integer literal without leading zeros, within F-VALUES (16 digits at
+# most), so that a line with the golden digest is always one the decoder accepts (RES-GOLDEN-IDENTITY)
+_SEQ_FIRST = re.compile(rb'\{"seq":(0|[1-9][0-9]{0,15}),')
 
 
 def _hex(*chunks: bytes | memoryview) -> str:
@@ -112,8 +114,9 @@ def dump(golden: Golden, path: str | Path) -> None:
     """Write ``golden`` atomically (a reader never sees half a file)."""
     path = Path(path)
     body = golden.body()
-    text = json.dumps({**body, "digest": _digest(body)}, separators=(",", ":"), sort_keys=True,
-                      ensure_ascii=False, allow_nan=False)
+    doc = {**body, "digest": _digest(body)}
+    schemas.self_check("golden", doc)  # F-SCHEMAS-SELF
+    text = json.dumps(doc, separators=(",", ":"), sort_keys=True, ensure_ascii=False, allow_nan=False)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".golden-", suffix=".tmp")
     try:

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 from agspec import SPEC_VERSION, __version__
 from agspec.formats import limits
 from agspec.formats.jsonl import LineWriter, iter_lines
-from agspec.formats.schemas import validate
+from agspec.formats.schemas import self_check, validate
 
 REPORT_FORMAT = "agspec-conform-report/1"
 OUTCOMES = ("pass", "fail", "error", "skip", "xfail", "xpass")
@@ -42,6 +42,10 @@ class ReportWriter(LineWriter):
     def __init__(self, path: str | Path | None):
         self.path = Path(path) if path else None
         super().__init__(self.path, default=str)
+
+    def write(self, record: Mapping[str, Any]) -> None:
+        self_check("report", record)  # F-SCHEMAS-SELF
+        super().write(record)
 
 
 def read_report(path: str | Path) -> tuple[list[dict[str, Any]], list[str]]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import copy
 import difflib
 import json
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Iterable, Mapping
@@ -34,12 +35,17 @@ _JSON_TYPES = {"integer": "an integer", "number": "a number", "string": "a strin
 @lru_cache(maxsize=1)
 def documents() -> dict[str, dict[str, Any]]:
     """Every agspec schema by ``$id``: schemas/*.schema.json and schemas/protocol/*.schema.json."""
+    return {doc["$id"]: doc for doc in _files().values() if "$id" in doc}
+
+
+@lru_cache(maxsize=1)
+def _files() -> dict[str, dict[str, Any]]:
+    """Every schema by its file name without ``.schema.json`` (``protocol/`` ones prefixed)."""
     out: dict[str, dict[str, Any]] = {}
     root = schemas_dir()
     for path in sorted(root.glob("*.schema.json")) + sorted((root / "protocol").glob("*.schema.json")):
-        doc = json.loads(path.read_text(encoding="utf-8"))
-        if "$id" in doc:
-            out[doc["$id"]] = doc
+        name = path.name[: -len(".schema.json")]
+        out[name if path.parent == root else f"protocol/{name}"] = json.loads(path.read_text(encoding="utf-8"))
     return out
 
 
@@ -50,7 +56,11 @@ def registry() -> Registry:
 
 
 def schema_id(name: str) -> str:
-    """``"trace"`` -> ``urn:agspec:schema:trace:1``; ``"protocol/step.reply"`` -> the protocol schema."""
+    """``"trace"`` -> ``urn:agspec:schema:trace:1``; ``"protocol/step.reply"`` -> the protocol schema; a
+    schema whose ``$id`` is not agspec's (``original-result-v1``) by its file name."""
+    doc = _files().get(name)
+    if doc is not None and isinstance(doc.get("$id"), str) and not doc["$id"].startswith("urn:agspec:"):
+        return doc["$id"]
     if name.startswith("protocol/"):
         return f"urn:agspec:schema:protocol:{name.split('/', 1)[1]}:1"
     return f"urn:agspec:schema:{name}:1"
@@ -103,14 +113,20 @@ def _inline(node: Any, base: str, docs: Mapping[str, Any], stack: tuple[str, ...
     return out
 
 
-@lru_cache(maxsize=None)
-def validator(name: str) -> Draft202012Validator:
-    """The compiled validator of schema ``name`` (see :func:`schema_id`), references inlined."""
+def inlined(name: str) -> dict[str, Any]:
+    """Schema ``name`` with every ``$ref`` replaced by the schema it names (what validators and
+    :mod:`agspec.formats.shape` compile)."""
     docs = documents()
     sid = schema_id(name)
     if sid not in docs:
         raise KeyError(f"no schema {name!r} ({sid}) under {schemas_dir()}")
-    return Draft202012Validator(_inline(docs[sid], sid, docs), registry=registry())
+    return _inline(docs[sid], sid, docs)
+
+
+@lru_cache(maxsize=None)
+def validator(name: str) -> Draft202012Validator:
+    """The compiled validator of schema ``name`` (see :func:`schema_id`), references inlined."""
+    return Draft202012Validator(inlined(name), registry=registry())
 
 
 _TYPE_WORDS = ((bool, "a boolean"), (int, "an integer"), (float, "a number"), (str, "a string"), (list, "an array"),
@@ -257,5 +273,25 @@ def validate(name: str, doc: Any, limit: int = 5) -> list[SchemaProblem]:
     return out
 
 
-__all__ = ["documents", "registry", "schema_id", "load_schema", "validator", "issues", "sort_key", "iter_issues",
+# F-SCHEMAS-SELF: with this variable set (the test suite sets it), every document agspec writes is
+# validated against its schema as it is written, and a violation is raised (SchemaDrift)
+SELF_CHECK = "AGSPEC_SELF_CHECK"
+
+
+class SchemaDrift(AssertionError):
+    """A document agspec wrote violates its own schema: a bug of agspec (F-SCHEMAS-SELF)."""
+
+
+def self_check(name: str, doc: Any) -> None:
+    """F-SCHEMAS-SELF: in self-check mode (``$AGSPEC_SELF_CHECK`` set), raise :class:`SchemaDrift` when
+    ``doc`` — a document agspec is writing — violates schema ``name``; otherwise do nothing."""
+    if not os.environ.get(SELF_CHECK):
+        return
+    problems = validate(name, doc, limit=3)
+    if problems:
+        raise SchemaDrift(f"a document agspec wrote violates schemas/{name}.schema.json: "
+                          + "; ".join(str(p) for p in problems))
+
+
+__all__ = ["SELF_CHECK", "SchemaDrift", "self_check", "documents", "registry", "schema_id", "load_schema", "inlined", "validator", "issues", "sort_key", "iter_issues",
            "SchemaProblem", "validate", "json_type", "show_value"]

@@ -11,15 +11,26 @@ from pathlib import Path
 from typing import IO, Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats import shape
 from agspec.formats.jsonl import LineWriter, dumps, read_values
+from agspec.formats.schemas import self_check
 
 TRACE_FORMAT = "agspec-trace/1"
 
 
 def read_records(source: str | Path | Iterable[str | bytes]) -> list[dict[str, Any]]:
     """The records of a trace (a path or its lines); an unparsable line ends the trace (it is then
-    reported as truncated by the checks that need a footer)."""
-    return read_values(source)
+    reported as truncated by the checks that need a footer).  F-VALUES: integral numbers where the
+    schema requires integers are read as integers (:func:`values_of`)."""
+    return [values_of(rec) for rec in read_values(source)]
+
+
+def values_of(record: Any) -> Any:
+    """F-VALUES: ``record`` with every integral number (within ±(2^53 − 1)) at a position
+    ``schemas/trace.schema.json`` types integer made an integer, in place; what else it holds is
+    the schema validation's to judge (F-TRACE-VALIDATE)."""
+    shape.conform(record, "trace")
+    return record
 
 
 class TraceWriter:
@@ -28,6 +39,12 @@ class TraceWriter:
         self.ticks = 0
 
     def _write(self, record: Mapping[str, Any]) -> None:
+        # F-SCHEMAS-SELF: the header, the footer and the first tick records against the whole schema;
+        # the other tick records (hundreds per trace, alike) against its shape
+        if record.get("type") != "tick" or self.ticks < 3:
+            self_check("trace", record)
+        else:
+            shape.self_check_shape("trace", record)
         self._out.write(record)
 
     def header(self, *, instance: Mapping[str, Any], fingerprint: str, execution_seed: int | None,
@@ -69,4 +86,4 @@ class TraceWriter:
         self._out.close()
 
 
-__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records"]
+__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records", "values_of"]

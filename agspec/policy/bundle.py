@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats.schemas import self_check
 from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
 
 FORMAT = "agspec-results/1"
@@ -75,6 +76,7 @@ class BundleWriter:
         """Rewrite the file complete (atomically) with ``tail`` fields such as wall time and findings."""
         self.fh.close()
         doc = {**self.head, "complete": True, **tail, "episodes": self.records}
+        self_check("results", doc)  # F-SCHEMAS-SELF
         tmp = self.path.with_name(self.path.name + ".tmp")
         tmp.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
         os.replace(tmp, self.path)

@@ -23,6 +23,7 @@ from agspec.diagnostics import Diagnostic
 from agspec.formats import limits
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.schemas import validate
+from agspec.formats.trace import values_of
 from agspec.ir.fingerprint import fingerprint
 
 TRACE_CODES = {
@@ -67,7 +68,7 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
                 for p in validate("trace", rec, limit=3):
                     diags.append(_diag(p.code, p.message, file, line.lineno, pointer=p.pointer or "/"))
                     schema_errors += 1
-            records.append(rec)
+            records.append(values_of(rec))  # F-VALUES: what the invariants and the whole-trace checks read
             lines.append(line.lineno)
     except limits.InputError as exc:  # missing, not a regular file, over the size limit
         return [], [exc.diagnostic()]
