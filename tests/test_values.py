@@ -21,7 +21,10 @@ from agspec.campaign.check import check_file
 from agspec.cli.main import cli
 from agspec.conform import runner
 from agspec.conform.lockstep import Options
-from agspec.formats.trace import read_records
+from agspec.formats import shape as shape_module
+from agspec.formats.shape import ShapeError, compile_shape
+from agspec.formats.trace import read_records, values_of
+from agspec.resources import schemas_dir
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -106,3 +109,37 @@ def _all_respelt(reply):
     from reply_mutations import Mutation
 
     return Mutation("values", "all", dump(respelt(reply, random.Random(len(json.dumps(reply))))), same=True)
+
+
+SHAPED = ["trace"] + sorted(f"protocol/{p.name.removesuffix('.schema.json')}"
+                            for p in (schemas_dir() / "protocol").glob("*.reply.schema.json"))
+
+
+@pytest.mark.parametrize("name", SHAPED)
+def test_every_shaped_schema_compiles_without_an_opaque_union(name):  # F-PROTOCOL-SHAPE, F-VALUES
+    """A union (anyOf / oneOf / not over value descriptions) would make its position opaque, and F-VALUES
+    would silently stop below it (events written `6.0` stayed floats under `anyOf [events, null]`)."""
+    compile_shape.cache_clear()
+    compile_shape(name)
+
+
+def test_an_opaque_union_in_a_shaped_schema_is_refused():  # F-PROTOCOL-SHAPE
+    node = {"type": "object", "properties": {"events": {"anyOf": [{"type": "array", "items": {"type": "integer"}},
+                                                                   {"type": "null"}]}}}
+    with pytest.raises(ShapeError):
+        shape_module._compile(node)
+    only_required = {"type": "object", "not": {"anyOf": [{"required": ["horizon"]}]}}
+    shape_module._compile(only_required)  # which members are required says nothing about values
+
+
+def test_event_numbers_written_as_floats_are_integers_after_reading(traces):  # F-VALUES
+    source, _ = traces["good"]
+    records = [json.loads(line) for line in source.read_text("utf-8").splitlines()]
+    record = next(r for r in records if r["type"] == "tick" and any(
+        isinstance(v, int) and not isinstance(v, bool) for e in r["events"] for v in e.values()))
+    ints = [(n, k) for n, e in enumerate(record["events"]) for k, v in e.items()
+            if isinstance(v, int) and not isinstance(v, bool)]
+    for n, k in ints:
+        record["events"][n][k] = float(record["events"][n][k])
+    values_of(record)
+    assert all(type(record["events"][n][k]) is int for n, k in ints)

@@ -111,10 +111,35 @@ def _merge(a: Shape, b: Shape) -> Shape:
     return a
 
 
+class ShapeError(ValueError):
+    """A schema a shape is compiled from uses a combinator a shape cannot describe (a bug in ``schemas/``)."""
+
+
+_VALUE_WORDS = frozenset({"type", "properties", "additionalProperties", "items", "const", "enum", "$ref"})
+
+
+def _describes_values(branches: Any) -> bool:
+    """Whether a combinator's branches say what values are (types, members, items), not only which
+    members are required: only then would a shape lose something by not descending into them."""
+    if isinstance(branches, dict):
+        branches = [branches]
+    return isinstance(branches, list) and any(
+        isinstance(b, dict) and (_VALUE_WORDS & b.keys() or any(_describes_values(b.get(w)) for w in
+                                                                   ("anyOf", "oneOf", "not", "allOf")))
+        for b in branches)
+
+
 def _compile(node: Any) -> Shape:
     s = Shape()
     if not isinstance(node, dict):
         return s
+    # anyOf / oneOf / not would make the position opaque: F-VALUES (integral numbers made integers)
+    # would silently stop below it, so a shaped schema writes unions as type lists instead
+    # (``"type": ["array", "null"]``) and alternatives as if/then on one member's constant
+    for word in ("anyOf", "oneOf", "not"):
+        if _describes_values(node.get(word)):
+            raise ShapeError(f"`{word}` in a schema compiled to a shape (F-PROTOCOL-SHAPE): write a type list "
+                             f"or an if/then on one member's constant instead: {str(node)[:160]}")
     if "type" in node:
         names = node["type"] if isinstance(node["type"], list) else [node["type"]]
         s.types, s.names = frozenset(t for n in names for t in _PY[n]), tuple(names)
@@ -385,4 +410,4 @@ def self_check_shape(name: str, doc: Any) -> None:
                           f"{problem or 'an integral float where an integer is required'}")
 
 
-__all__ = ["MAX_SAFE_INTEGER", "Shape", "Problem", "compile_shape", "checker", "conform", "self_check_shape"]
+__all__ = ["MAX_SAFE_INTEGER", "Shape", "ShapeError", "Problem", "compile_shape", "checker", "conform", "self_check_shape"]
