@@ -41,6 +41,7 @@ from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
+from agspec.ir.fingerprint import fingerprint
 
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
@@ -69,6 +70,13 @@ class Implementation:
         self.last_reply: Reply | None = None
         self.restarts = 0
         self.start_timeout: float | None = None  # the start request may take longer (process start-up)
+        # F-PROTOCOL giving up, scoped to what failed: failed starts in a row (no item runs without a
+        # started simulator) and failures per instance (fingerprint); None: never give up
+        self.max_restarts: int | None = None
+        self._start_failures = 0
+        self._failures: dict[str, int] = {}
+        self._loading: Mapping[str, Any] | None = None  # the instance of the session
+        self._last_failure: dict[str, str] = {}
 
     # ---------------------------------------------------------------- transport (subclasses)
 
@@ -128,7 +136,11 @@ class Implementation:
         except ProtocolError as exc:
             if not exc.stderr:
                 exc.stderr = self.stderr_tail()
-            self._fail()
+            # an `ok: false` answer to load or reset leaves the session in step (nothing else is in
+            # flight): the simulator answered, so it keeps running (F-PROTOCOL, timing and isolation)
+            if not (exc.code == "error_reply" and cmd in ("load", "reset")):
+                self._note_failure(cmd, exc)
+                self._fail()
             raise
         self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
         return reply
@@ -170,14 +182,45 @@ class Implementation:
         """Open the transport and hand-shake (``start``); returns the start reply (``info``)."""
         if self._alive:
             return self.info
+        if self.max_restarts is not None and self._start_failures >= self.max_restarts:
+            raise ProtocolError("gave_up", f"gave up: `{self.spec}` failed to start {self._start_failures} times in a "
+                                           f"row (last: {self._last_failure.get('start', '?')}); no item runs "
+                                           "without a started simulator", stderr=self.stderr_tail())
         if self.info:
             self.restarts += 1
-        self._open()
+        try:
+            self._open()
+        except ProtocolError as exc:
+            self._start_failures += 1
+            self._last_failure["start"] = str(exc)
+            raise
         self._alive = True
         reply = self._request("start", protocol=protocol.PROTOCOL)
+        self._start_failures = 0
         self.info = {k: v for k, v in reply.items() if k not in ("seq", "ok")}
         self.capabilities = protocol.normalize_capabilities(reply.get("capabilities"))
         return self.info
+
+    def _note_failure(self, cmd: str, exc: ProtocolError) -> None:
+        """Count a failure (crash, timeout, protocol error) against its scope: the start, or the instance
+        of the session."""
+        if cmd == "start":
+            self._start_failures += 1
+            self._last_failure["start"] = str(exc)
+        elif self._loading is not None:
+            fp = fingerprint(self._loading)
+            self._failures[fp] = self._failures.get(fp, 0) + 1
+
+    def _check_budget(self, instance: Mapping[str, Any]) -> None:
+        """F-PROTOCOL: an instance on which the simulator failed ``max_restarts`` times is not sent again."""
+        self._loading = instance
+        if self.max_restarts is None or not self._failures:
+            return
+        failed = self._failures.get(fingerprint(instance), 0)
+        if failed >= self.max_restarts:
+            name = instance.get("id") if isinstance(instance.get("id"), str) else "(no id)"
+            raise ProtocolError("gave_up", f"gave up on instance {name}: `{self.spec}` failed on it {failed} times "
+                                           "in this run (the harness no longer sends it; other instances still run)")
 
     def _ensure(self) -> None:
         if not self._alive:
@@ -186,6 +229,7 @@ class Implementation:
                 self._request("load", instance=self._instance)
 
     def load(self, instance: Mapping[str, Any]) -> None:
+        self._check_budget(instance)
         if not self._alive:
             self.start()
         self._instance = None
@@ -356,7 +400,7 @@ class SubprocessImpl(Implementation):
         self.spec = command if isinstance(command, str) else shlex.join(command)
         self.timeout = float(timeout)
         self.start_timeout = max(self.timeout, 10.0)  # interpreter / JIT start-up is not a hang
-        self.max_restarts = max_restarts
+        self.max_restarts = max_restarts  # F-PROTOCOL: failed starts in a row, or failures on one instance
         self.cwd, self.env = cwd, dict(env) if env is not None else None
         self.proc: subprocess.Popen | None = None
         self._lines: queue.Queue = queue.Queue()
@@ -367,9 +411,6 @@ class SubprocessImpl(Implementation):
     # ---------------------------------------------------------------- process
 
     def _open(self) -> None:
-        if self.restarts > self.max_restarts:
-            raise ProtocolError("gave_up", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
-                                stderr=self.stderr_tail())
         # Replies with every observation run to ~100 KB: a 1 MiB pipe and read buffer let the simulator
         # write several pipelined replies ahead instead of blocking on a 64 KiB pipe (F-GOLDEN).  Where
         # the pipe size cannot be set (another OS, a per-user limit) the default pipe serves.

@@ -210,7 +210,15 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
     return True
 
 
+# F-PROTOCOL-UNSUPPORTED: what a refusal of load or reset should have been, when it declines the instance
+DECLINE_HINT = ("a simulator that cannot represent an instance declines it with the error code `unsupported` "
+                "(F-PROTOCOL-UNSUPPORTED): the item is then skipped with its reason, not an error")
+
+
 def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> None:
+    declined = any(f"refused `{cmd}`" in exc.message for cmd in ("load", "reset"))
+    if exc.code == "error_reply" and declined and DECLINE_HINT not in exc.message:
+        exc.message += f" (hint: {DECLINE_HINT})"
     res.outcome = "error"
     res.message = str(exc)
     res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
