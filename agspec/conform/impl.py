@@ -35,7 +35,7 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
-from agspec.conform import protocol
+from agspec.conform import protocol, teardown
 from agspec.conform.protocol import ProtocolError
 from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
@@ -390,6 +390,7 @@ class SubprocessImpl(Implementation):
     STDERR_KEEP = 65536
     PIPELINE = 8  # F-GOLDEN: step requests a golden replay keeps in flight
     PIPE_BYTES = 1 << 20  # pipe and read-buffer size (Linux default pipe-max-size)
+    TEARDOWN_GRACE = 0.3  # seconds for the output to end once the process group is killed
 
     def __init__(self, command: str | list[str], timeout: float = 5.0, *, max_restarts: int = 10,
                  cwd: str | None = None, env: Mapping[str, str] | None = None, **kw: Any):
@@ -407,6 +408,8 @@ class SubprocessImpl(Implementation):
         self._stderr: collections.deque = collections.deque()
         self._stderr_size = 0
         self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._readers: list[threading.Thread] = []
 
     # ---------------------------------------------------------------- process
 
@@ -427,28 +430,28 @@ class SubprocessImpl(Implementation):
         with self._lock:
             self._stderr.clear()
             self._stderr_size = 0
-        threading.Thread(target=self._read_stdout, args=(self.proc, self._lines), daemon=True).start()
-        threading.Thread(target=self._read_stderr, args=(self.proc,), daemon=True).start()
+        # F-PROTOCOL-TEARDOWN: readers that a teardown can always stop (teardown.pump)
+        self._stop = threading.Event()
+        self._readers = [threading.Thread(target=self._read_stdout, args=(self.proc, self._lines, self._stop),
+                                          daemon=True),
+                         threading.Thread(target=self._read_stderr, args=(self.proc, self._stop), daemon=True)]
+        for reader in self._readers:
+            reader.start()
 
-    @staticmethod
-    def _read_stdout(proc: subprocess.Popen, lines: queue.Queue) -> None:
-        try:
-            for raw in iter(proc.stdout.readline, b""):
-                lines.put(raw)
-        except (OSError, ValueError):
-            pass
-        lines.put(None)  # end of stream
+    def _read_stdout(self, proc: subprocess.Popen, lines: queue.Queue, stop: threading.Event) -> None:
+        sink = teardown.LineSink(lines)
+        teardown.pump(proc.stdout.fileno(), sink, stop, self.PIPE_BYTES)
+        sink.finish()
 
-    def _read_stderr(self, proc: subprocess.Popen) -> None:
-        try:
-            for chunk in iter(lambda: proc.stderr.read1(4096), b""):
-                with self._lock:
-                    self._stderr.append(chunk)
-                    self._stderr_size += len(chunk)
-                    while self._stderr_size > self.STDERR_KEEP and len(self._stderr) > 1:
-                        self._stderr_size -= len(self._stderr.popleft())
-        except (OSError, ValueError):
-            pass
+    def _read_stderr(self, proc: subprocess.Popen, stop: threading.Event) -> None:
+        def keep(chunk: bytes) -> None:
+            with self._lock:
+                self._stderr.append(chunk)
+                self._stderr_size += len(chunk)
+                while self._stderr_size > self.STDERR_KEEP and len(self._stderr) > 1:
+                    self._stderr_size -= len(self._stderr.popleft())
+
+        teardown.pump(proc.stderr.fileno(), keep, stop, 65536)
 
     def stderr_tail(self, limit: int = 4000) -> str:
         with self._lock:
@@ -515,6 +518,7 @@ class SubprocessImpl(Implementation):
         proc, self.proc = self.proc, None
         if proc is None:
             return
+        readers, stop = self._readers, self._stop
         try:
             if proc.poll() is None:
                 try:
@@ -527,12 +531,21 @@ class SubprocessImpl(Implementation):
                     pass
             # F-PROTOCOL-TEARDOWN: the whole process group goes, also children the simulator left behind
             self._kill(proc)
+            # a reader still without end of file: a process in a session of its own holds the pipe
+            for reader in readers:
+                reader.join(self.TEARDOWN_GRACE)
+            if any(r.is_alive() for r in readers):
+                teardown.kill_pipe_writers(proc.stdout.fileno(), proc.stderr.fileno())
         finally:
+            stop.set()  # the readers end within teardown.POLL_S whatever holds the pipes
+            for reader in readers:
+                reader.join(2 * teardown.POLL_S + 1.0)
             for stream in (proc.stdin, proc.stdout, proc.stderr):
-                try:
-                    stream.close()
-                except (OSError, ValueError):
-                    pass
+                if stream is proc.stdin or not any(r.is_alive() for r in readers):
+                    try:
+                        stream.close()
+                    except (OSError, ValueError):
+                        pass
 
     @staticmethod
     def _kill(proc: subprocess.Popen) -> None:

@@ -31,6 +31,7 @@ CODES: dict[str, tuple[str, str]] = {
     "exit": (CRASH, "the simulator exited (non-zero status or signal) before replying"),
     "eof": (CRASH, "the simulator closed its stdout before replying"),
     "exception": (CRASH, "the in-process adapter raised an exception"),
+    "harness_killed": (CRASH, "the harness worker died while running the item against a simulator it had started"),
     "timeout": (TIMEOUT, "no reply within the per-request timeout"),
     "malformed_json": (PROTOCOL_ERROR, "a line on stdout is not a JSON object"),
     "wrong_seq": (PROTOCOL_ERROR, "a reply does not echo the seq of any request sent"),

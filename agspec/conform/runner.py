@@ -15,12 +15,15 @@ The level (F-CONFORM-LEVELS) is what the run compared: the behavioural parts of 
 
 from __future__ import annotations
 
+import contextlib
+import tempfile
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.conform import expect as expect_mod
+from agspec.conform import workers
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
@@ -169,19 +172,24 @@ class Summary:
 # --------------------------------------------------------------------------- workers (CAMP-EXECUTOR)
 
 
-def _open_impl(shared: tuple[str, float, bool, Options]) -> tuple[Implementation, Options]:
+def _open_impl(shared: tuple[str, float, bool, Options, str | None]) -> tuple[Implementation, Options, str | None]:
     """Per worker: its own implementation (never shared), made once and used for all its items."""
-    spec, timeout, validate, opts = shared
-    return make_impl(spec, timeout=timeout, validate=validate), opts
+    spec, timeout, validate, opts, watch = shared
+    return make_impl(spec, timeout=timeout, validate=validate), opts, watch
 
 
-def _close_impl(context: tuple[Implementation, Options]) -> None:
+def _close_impl(context: tuple[Implementation, Options, str | None]) -> None:
     context[0].close()  # stops the worker's simulator (CAMP-CANCEL)
 
 
-def _run_item(context: tuple[Implementation, Options], item: Item) -> Result:
-    impl, opts = context
-    return run_item(item, impl, opts)
+def _run_item(context: tuple, item: Item) -> Result:
+    impl, opts = context[0], context[1]
+    watch = context[2] if len(context) > 2 else None
+    marker = workers.mark(watch, item.id, impl) if watch else None  # evidence if this worker dies
+    result = run_item(item, impl, opts)
+    if marker is not None:
+        workers.clear(marker)
+    return result
 
 
 # --------------------------------------------------------------------------- the run
@@ -220,7 +228,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
         declared = {"state" if k == "privileged_state" else k for k, v in impl.capabilities.items() if v}
         summary.header["level"] = level_name([p for p in LEVEL_PARTS if p in declared])
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}
-        with ReportWriter(report_path) as report:
+        watch: str | None = None  # the workers' markers (conform.workers), with -j
+        with ReportWriter(report_path) as report, contextlib.ExitStack() as stack:
             report.write(summary.header)
             failures = 0
 
@@ -245,16 +254,21 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
             else:
                 if own:
                     impl.close()
-                task = Task(_run_item, (impl_spec, timeout, validate, opts), _open_impl, _close_impl)
+                watch = stack.enter_context(tempfile.TemporaryDirectory(prefix="agspec-workers-"))
+                task = Task(_run_item, (impl_spec, timeout, validate, opts, watch), _open_impl, _close_impl)
             outcomes = run_ordered(task, items, executor)
             try:
                 for index, outcome in outcomes:  # in item order (CAMP-ORDER), so the report is too
                     if isinstance(outcome, Done):
                         result = outcome.value
-                    else:  # CAMP-FAULTS: the item is a harness error naming the cause
-                        message = f"worker failed: {outcome.message()}"
-                        result = Result(items[index], "error", message,
-                                        {"type": "harness", "code": "worker", "message": message, "tick": None})
+                    else:  # CAMP-FAULTS: the item is an error naming the cause
+                        failure = workers.blame(watch, items[index].id) if outcome.worker_died else None
+                        if failure is None:  # the harness cannot tell who killed its worker
+                            message = f"worker failed: {outcome.message()}"
+                            failure = {"type": "harness", "code": "worker", "message": message, "tick": None}
+                        else:
+                            failure["message"] += f" ({outcome.message()})"
+                        result = Result(items[index], "error", failure["message"], failure)
                     if done(index, result):
                         break
             finally:

@@ -2,7 +2,7 @@
 """A family of F-PROTOCOL simulators, parametrized, for the generators of the harness's own tests.
 
     python tests/fakes/scripted_sim.py [--fail JSON] [--leak load|reset] [--coin DIR] [--wrong-at T]
-                                       [--rerun-wrong] [--refuse-rerun] [--kill-parent] [--daemon]
+                                       [--rerun-wrong] [--refuse-rerun] [--kill-parent] [--daemon HOW]
                                        [--refuse-custom CODE]
 
 The simulator is the reference interpreter behind the protocol (privileged state and events), with
@@ -25,7 +25,8 @@ the faults its options name:
 ``--rerun-wrong``     wrong from epoch 1 when this process has loaded the same instance before
 ``--refuse-rerun``    answers ``ok: false`` to every load after the first of this process
 ``--kill-parent``     kills its parent (the harness worker) with SIGKILL at the step of epoch 1
-``--daemon``          at start, leaves a daemon in a session of its own that holds stdout for 600 s
+``--daemon HOW``      at start, leaves a daemon that holds its pipes for 600 s: ``session`` (in a session
+                      of its own, both pipes), ``stdout`` / ``stderr`` (own session, one pipe), ``group``
 """
 
 from __future__ import annotations
@@ -52,11 +53,20 @@ def _ticket(directory: str) -> int:
             n += 1
 
 
-def _daemon() -> None:
-    """A grandchild in a session of its own holding our stdout (the harness's pipe) open."""
+def _daemon(how: str) -> None:
+    """A grandchild that holds our pipes open for 600 s: in a session of its own (``session``, both
+    pipes), holding only stdout or only stderr (``stdout``, ``stderr``, also in its own session), or
+    in our process group (``group``)."""
     if os.fork() == 0:
-        os.setsid()
+        if how != "group":
+            os.setsid()
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        if how == "stdout":
+            os.dup2(devnull, 2)
+        elif how == "stderr":
+            os.dup2(devnull, 1)
         if os.fork() == 0:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
             time.sleep(600)
         os._exit(0)
     os.wait()
@@ -72,7 +82,8 @@ def main() -> int:
     parser.add_argument("--rerun-wrong", action="store_true")
     parser.add_argument("--refuse-rerun", action="store_true")
     parser.add_argument("--kill-parent", action="store_true")
-    parser.add_argument("--daemon", action="store_true")
+    parser.add_argument("--tag", default="", help="ignored: names the process for a test that looks for it")
+    parser.add_argument("--daemon", choices=("session", "stdout", "stderr", "group"), default=None)
     args = parser.parse_args()
     plan = json.loads(args.fail)
 
@@ -96,7 +107,7 @@ def main() -> int:
         msg = json.loads(line)
         cmd, seq = msg.get("cmd"), msg.get("seq")
         if cmd == "start" and args.daemon:
-            _daemon()
+            _daemon(args.daemon)
         ident = str(((msg.get("instance") if cmd == "load" else server.instance) or {}).get("id", ""))
         at = server.sim.t if (cmd == "step" and server.sim is not None) else -1
         fault = next((f for key, f in plan.items() if key in ident and f.get("cmd") == cmd
