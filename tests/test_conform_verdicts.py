@@ -298,7 +298,13 @@ def test_every_reproducer_is_printed_and_in_the_report(tmp_path, monkeypatch):
 # =============================================================================================== nondeterminism
 
 
-def test_diff_reports_a_nondeterministic_implementation():
+@pytest.fixture
+def coin(tmp_path, monkeypatch):
+    """A fresh coin for the nondeterministic mutant: its first process diverges, later ones do not."""
+    monkeypatch.setenv(registry.COIN_ENV, str(tmp_path / "coin"))
+
+
+def test_diff_reports_a_nondeterministic_implementation(coin):
     inst = HERE / "mutants" / "instances" / "pair-1x2-flat.json"
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", mutant("nondeterministic"),
                                       "--scenario", str(inst), "--ticks", "8", "--small", "0",
@@ -309,7 +315,7 @@ def test_diff_reports_a_nondeterministic_implementation():
     assert evidence["replays"] == 3 and evidence["reproduced"] == 0
 
 
-def test_conform_reports_a_nondeterministic_implementation():
+def test_conform_reports_a_nondeterministic_implementation(coin):
     result = CliRunner().invoke(cli, ["conform", "--impl", mutant("nondeterministic"), "--no-suite", "--episodes",
                                       "1", "--ticks", "8", "-k", "e-flow-easy-greedy"])
     assert result.exit_code == runner.EXIT_NONDETERMINISTIC, result.output

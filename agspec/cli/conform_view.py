@@ -185,9 +185,14 @@ def print_summary(summary, impl_spec: str) -> None:
     code = summary.exit_code
     if summary.nondeterministic is not None:
         nd = summary.nondeterministic
-        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) "
-                     f"reproduced it {nd['reproduced']} time(s): " + "; ".join(
+        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) of its "
+                     f"reproducer in a fresh process reproduced it {nd['reproduced']} time(s): " + "; ".join(
                          f"{r['outcome']} {r['message'] or ''}".strip() for r in nd["replays"]), markup=False)
+    if summary.history_dependent is not None:
+        hd = summary.history_dependent
+        stdout.print(f"history-dependent: {hd['message']} (F-CONFORM-HISTORY)", markup=False)
+        if hd.get("reproducer"):
+            stdout.print(f"reproducer with that history: {hd['reproducer']}", markup=False)
     style = {0: "bold green", 1: "bold red", EXIT_NONDETERMINISTIC: "bold red"}.get(code, "bold magenta")
     head, sep, rest = summary.verdict.partition(":")
     verdict = (head.upper() + sep + rest) if code in (1, EXIT_NONDETERMINISTIC) else summary.verdict

@@ -46,6 +46,8 @@ from agspec.ir.fingerprint import fingerprint
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
 MATCHED: Any = type("Matched", (), {"__repr__": lambda self: "MATCHED", "__slots__": ()})()
+# F-REPRO: the most requests a session keeps for a history reproducer (beyond: not reproducible from it)
+SESSION_CAP = 1_000_000
 # on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
 MessageHook = Callable[[str, str, Any], None]
 
@@ -76,6 +78,9 @@ class Implementation:
         self._start_failures = 0
         self._failures: dict[str, int] = {}
         self._loading: Mapping[str, Any] | None = None  # the instance of the session
+        # F-REPRO: the requests of this process's session so far (``log_request``); a new process starts empty
+        self.session: list[tuple[str, Any]] = []
+        self.session_complete = True
         self._last_failure: dict[str, str] = {}
 
     # ---------------------------------------------------------------- transport (subclasses)
@@ -106,6 +111,7 @@ class Implementation:
         without being decoded — it is the golden reply byte for byte; any other reply is decoded
         and checked as always."""
         msg = protocol.request(cmd, self._next_seq(), **fields)
+        self.log_request(cmd, fields)
         if self.on_message:
             self.on_message("->", cmd, msg)
         if self.validate:
@@ -115,6 +121,19 @@ class Implementation:
         # start and load may build a whole model (interpreter start-up, instance compilation)
         return self._finish(msg, lambda: self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None),
                             golden)
+
+    def log_request(self, cmd: str, fields: Mapping[str, Any]) -> None:
+        """F-REPRO: keep the behavioural requests of this session (``load``, ``reset``, ``step``, in the
+        order sent) — what a reproducer must send first when a failure depends on them."""
+        if len(self.session) >= SESSION_CAP:
+            self.session_complete = False
+            return
+        if cmd == "load":
+            self.session.append(("load", fields["instance"]))
+        elif cmd == "reset":
+            self.session.append(("reset", fields.get("execution_seed")))
+        elif cmd == "step":
+            self.session.append(("step", dict(fields.get("actions") or {})))
 
     def _finish(self, msg: dict[str, Any], receive: Callable[[], Any], golden: tuple[str, str] | None) -> Reply:
         """The reply to ``msg`` (``receive()`` waits for it): MATCHED, or decoded and checked; a failure
@@ -188,6 +207,7 @@ class Implementation:
                                            "without a started simulator", stderr=self.stderr_tail())
         if self.info:
             self.restarts += 1
+        self.session, self.session_complete = [], True  # a new process (or adapter) has no history
         try:
             self._open()
         except ProtocolError as exc:

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from agspec.catalogue import OFFICIAL_SCENARIOS, load_scenario_bundle
@@ -36,6 +37,9 @@ class Item:
     invariants: tuple[str, ...] = ()
     tags: tuple[str, ...] = ()
     location: str | None = None
+    # F-REPRO: requests the implementation's process received before this episode, sent again first
+    # (("load", instance) / ("reset", seed) / ("step", actions)); a history-dependent failure's reproducer
+    history: tuple[tuple[str, Any], ...] = field(default=(), repr=False)
 
     @property
     def needs_observations(self) -> bool:
@@ -86,13 +90,37 @@ def catalogue_episodes(episodes: int, ticks: int, scenarios: Sequence[str] | Non
 
 
 def from_reproducer(data: Mapping[str, Any], path: str) -> Item:
-    """F-REPRO: the reproducer's action prefix as a script."""
+    """F-REPRO: the reproducer's action prefix as a script, after the requests of its ``history`` and with
+    the case's ``expectations`` it carries."""
     actions = tuple(dict(a) for a in data["actions"])
+    case = None
+    if data.get("expectations"):
+        case = Case(id=str(data.get("id") or "replay"), title=str(data.get("title") or path), rules=(), invariants=(),
+                    tags=(), instance=dict(data["instance"]), execution_seed=data.get("execution_seed"),
+                    actions=actions, driver=None, expectations=tuple(dict(e) for e in data["expectations"]),
+                    source=Path(path), line=1)
     return Item(
         id=str(data.get("id") or "replay"), kind="replay", title=f"replay of {data.get('title') or path}",
         instance=dict(data["instance"]), execution_seed=data.get("execution_seed"), ticks=len(actions),
-        actions=actions, location=str(path), tags=("replay",),
+        actions=actions, location=str(path), tags=("replay",), case=case,
+        history=history_requests(data.get("history")),
     )
+
+
+def history_requests(history: Mapping[str, Any] | None) -> tuple[tuple[str, Any], ...]:
+    """The requests of a reproducer's ``history`` ({"instances": [IR...], "requests": [...]})."""
+    if not history:
+        return ()
+    instances = history["instances"]
+    out: list[tuple[str, Any]] = []
+    for req in history["requests"]:
+        if req["cmd"] == "load":
+            out.append(("load", instances[req["instance"]]))
+        elif req["cmd"] == "reset":
+            out.append(("reset", req.get("execution_seed")))
+        else:
+            out.append(("step", dict(req["actions"])))
+    return tuple(out)
 
 
 __all__ = ["Item", "from_case", "catalogue_episodes", "from_reproducer"]

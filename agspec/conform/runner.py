@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
+from agspec.conform import confirm, workers
 from agspec.conform import expect as expect_mod
-from agspec.conform import workers
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
@@ -64,6 +64,7 @@ class Summary:
     header: dict[str, Any] = field(default_factory=dict)
     require: tuple[str, ...] = ()  # --require: parts the run must prove
     nondeterministic: dict[str, Any] | None = None  # the evidence (F-CONFORM-NONDETERMINISM)
+    history_dependent: dict[str, Any] | None = None  # the evidence (F-CONFORM-HISTORY)
 
     @property
     def compared(self) -> dict[str, int]:
@@ -152,6 +153,8 @@ class Summary:
             if self.missing and not (self.counts["fail"] or self.counts["xpass"] or self.stale):
                 return (f"insufficient level: proved {level_name(self.level)}, --require needs "
                         f"{', '.join(self.missing)}")
+            if self.history_dependent is not None:
+                return "nonconformant: history-dependent (a failure needs what the simulator process did before)"
             return "nonconformant"
         return "vacuous" if self.vacuous else "harness or protocol error"
 
@@ -163,6 +166,7 @@ class Summary:
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
             "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
+            "history_dependent": self.history_dependent,
             "duration_s": round(self.duration_s, 3), "golden_items": self.golden,
             "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
             "verdict": self.verdict, "exit_code": self.exit_code,
@@ -208,8 +212,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
     ``jobs`` local processes, each worker with its own implementation); results are reported in
     item order whatever order the workers finish in (CAMP-ORDER).  ``max_fail``: stop after that
     many failing outcomes (``-x`` = 1).  ``require``: the parts the run must prove (``--require``);
-    ``replays``: how often the first failing item is run again to tell a reproducible failure from a
-    nondeterministic one (0: never).
+    ``replays``: how often the first failing item's reproducer is replayed in a fresh process to tell a
+    reproducible failure from a history-dependent or a nondeterministic one (0: never; confirm).
     """
     opts = opts or Options(impl_spec=impl_spec)
     expectations = dict(expectations or {})
@@ -275,10 +279,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
                 outcomes.close()  # -x / --max-fail / Ctrl-C: cancel the rest, stop the workers
             summary.results = [by_index[i][:2] for i in sorted(by_index)]
             summary.records = [by_index[i][2] for i in sorted(by_index)]
-            first = next((r for r, o in summary.results if r.outcome == "fail" and r.item.kind != "replay"), None)
-            if first is not None and replays > 0:
-                summary.nondeterministic = _replay_first_failure(first, impl if inline else None, impl_spec, timeout, validate, opts,
-                                                                 replays)
+            if replays > 0:
+                _confirm_failures(summary, impl_spec, timeout, validate, opts, replays)
             summary.not_run = len(items) - len(summary.results)
             for ident in summary.stale:
                 exp = expectations.get(ident)
@@ -293,36 +295,26 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
 
 
 def failure_signature(result: Result) -> tuple[Any, ...]:
-    """What must recur for a failure to count as reproduced: outcome, tick, place and invariant IDs."""
-    f = result.failure or {}
-    return (result.outcome, f.get("tick"), f.get("type"), f.get("path"), tuple(f.get("ids") or ()))
+    """What must recur for a failure to count as reproduced: outcome, tick, kind, place and invariant IDs."""
+    return confirm.signature(result)
 
 
-def _replay_first_failure(first: Result, impl: Implementation | None, impl_spec: str, timeout: float,
-                          validate: bool, opts: Options, replays: int) -> dict[str, Any] | None:
-    """F-CONFORM-NONDETERMINISM: run the first failing item ``replays`` more times (no reproducer
-    written); the evidence when any replay does not fail the same way, else None."""
-    import dataclasses
-
-    quiet = dataclasses.replace(opts, repro_dir=None)
-    own = impl is None
-    impl = impl or make_impl(impl_spec, timeout=timeout, validate=validate)
-    want = failure_signature(first)
-    seen: list[dict[str, Any]] = []
-    try:
-        for _ in range(replays):
-            again = run_item(first.item, impl, quiet)
-            seen.append({"outcome": again.outcome, "tick": (again.failure or {}).get("tick"),
-                         "path": (again.failure or {}).get("path"), "message": again.message})
-    finally:
-        if own:
-            impl.close()
-    reproduced = sum(1 for s in seen if (s["outcome"], s["tick"], s["path"]) == (want[0], want[1], want[3]))
-    if reproduced == len(seen):
-        return None
-    return {"id": first.item.id, "first": {"outcome": first.outcome, "tick": want[1], "path": want[3],
-                                           "message": first.message},
-            "replays": seen, "reproduced": reproduced}
+def _confirm_failures(summary: Summary, impl_spec: str, timeout: float, validate: bool, opts: Options,
+                      replays: int) -> None:
+    """F-CONFORM-NONDETERMINISM, F-CONFORM-HISTORY: replay the failures as their reproducers will be
+    replayed (a fresh process, :mod:`agspec.conform.confirm`); record what that showed and write the
+    history reproducers where the failures need them (at the paths already printed)."""
+    failing = [r for r, _ in summary.results if r.outcome == "fail" and r.item.kind != "replay"]
+    found = confirm.confirm_failures(failing, impl_spec, timeout=timeout, validate=validate, opts=opts,
+                                     replays=replays)
+    summary.nondeterministic = found.nondeterministic
+    written: dict[str, str | None] = {}
+    for result, data in found.rewrites:
+        path = (result.failure or {}).get("reproducer")
+        written[result.item.id] = confirm.write(path, data)
+    if found.history_dependent is not None:
+        summary.history_dependent = {**found.history_dependent,
+                                     "reproducer": written.get(found.history_dependent["id"])}
 
 
 __all__ = ["run", "Summary", "FAILING", "EXIT_NONDETERMINISTIC", "parse_level", "level_name", "failure_signature"]
