@@ -2,7 +2,7 @@
 """A family of F-PROTOCOL simulators, parametrized, for the generators of the harness's own tests.
 
     python tests/fakes/scripted_sim.py [--fail JSON] [--leak load|reset] [--coin DIR] [--wrong-at T]
-                                       [--rerun-wrong] [--refuse-rerun] [--kill-parent] [--daemon HOW]
+                                       [--rerun-wrong] [--refuse-rerun] [--kill-parent] [--daemon HOW] [--coercion HOW]
                                        [--refuse-custom CODE]
 
 The simulator is the reference interpreter behind the protocol (privileged state and events), with
@@ -25,6 +25,10 @@ the faults its options name:
 ``--rerun-wrong``     wrong from epoch 1 when this process has loaded the same instance before
 ``--refuse-rerun``    answers ``ok: false`` to every load after the first of this process
 ``--kill-parent``     kills its parent (the harness worker) with SIGKILL at the step of epoch 1
+``--coercion HOW``    mishandles illegal actions (R-ACTION-VALIDATION): coerces them without the
+                      ``action_coerced`` event (``silent``), only the out-of-range ones or only the
+                      masked ones so (``silent-range``, ``silent-masked``), or reports the wrong
+                      ``action`` in the event (``wrong-action``)
 ``--daemon HOW``      at start, leaves a daemon that holds its pipes for 600 s: ``session`` (in a session
                       of its own, both pipes), ``stdout`` / ``stderr`` (own session, one pipe), ``group``
 """
@@ -72,6 +76,18 @@ def _daemon(how: str) -> None:
     os.wait()
 
 
+def _coerced(event: dict, how: str) -> dict | None:
+    """An ``action_coerced`` event as a simulator that mishandles illegal actions reports it (None: dropped)."""
+    if event.get("type") != "action_coerced":
+        return event
+    out_of_range = not 0 <= int(event.get("action", 0)) < 114
+    if how == "silent" or (how == "silent-range" and out_of_range) or (how == "silent-masked" and not out_of_range):
+        return None
+    if how == "wrong-action":
+        return {**event, "action": 0}
+    return event
+
+
 def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--fail", default="{}")
@@ -82,6 +98,8 @@ def main() -> int:
     parser.add_argument("--rerun-wrong", action="store_true")
     parser.add_argument("--refuse-rerun", action="store_true")
     parser.add_argument("--kill-parent", action="store_true")
+    parser.add_argument("--coercion", choices=("silent", "silent-range", "silent-masked", "wrong-action"),
+                        default=None)
     parser.add_argument("--tag", default="", help="ignored: names the process for a test that looks for it")
     parser.add_argument("--daemon", choices=("session", "stdout", "stderr", "group"), default=None)
     args = parser.parse_args()
@@ -139,6 +157,9 @@ def main() -> int:
         reply = server.handle(msg)
         if mode == "garbage":
             write("DEBUG: not a reply")
+        if args.coercion and cmd == "step" and isinstance(reply.get("events"), list):
+            reply["events"] = [_coerced(e, args.coercion) for e in reply["events"]]
+            reply["events"] = [e for e in reply["events"] if e is not None]
         wrong = mode == "wrong"
         if cmd == "step" and reply.get("ok") and at >= 1:
             history = {"load": loads, "reset": resets}.get(args.leak or "", 0)
