@@ -40,7 +40,7 @@ def _load_suite(suite_dir: str | None):
 
 
 def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-                episodes: int, ticks: int) -> tuple[list, str, set[str], bool]:
+                episodes: int, ticks: int | None) -> tuple[list, str, set[str], bool]:
     """(items, impl spec, every id that exists, whether the suite was loaded)."""
     from agspec.conform.items import catalogue_episodes, from_case, from_reproducer
 
@@ -175,6 +175,9 @@ def print_summary(summary, impl_spec: str) -> None:
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
         stdout.print(f"reproducer: {path}", markup=False)
+    if summary.horizon:  # F-CONFORM: how much of each scenario's horizon the catalogue episodes checked
+        stdout.print("horizon checked: " + ", ".join(f"{name} {row['ticks']}/{row['horizon']}"
+                                                     for name, row in summary.horizon.items()), markup=False)
     witnessed = sorted({r for rules in EVENT_RULES.values() for r in rules})
     missing = [r for r in witnessed if r not in summary.rules_exercised]
     stdout.print(f"rules exercised: {len(summary.rules_exercised)} of {len(witnessed)} the events witness"

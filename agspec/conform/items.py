@@ -5,7 +5,8 @@
 * a catalogue **episode** (F-CONFORM): each official scenario at suite index 0, driven by
   the greedy controller (``e-{scenario}-greedy``) and by seeded random-masked controllers
   (``e-{scenario}-random-{k}``, seed k), acting on the *reference's* observations; ``--episodes N``
-  runs the greedy one and N - 1 random ones per scenario, ``--ticks T`` steps each;
+  runs the greedy one and N - 1 random ones per scenario, over the whole horizon (``--ticks T``: its
+  first T epochs);
 * a **replay** of a reproducer file (F-REPRO).
 """
 
@@ -40,6 +41,13 @@ class Item:
     # F-REPRO: requests the implementation's process received before this episode, sent again first
     # (("load", instance) / ("reset", seed) / ("step", actions)); a history-dependent failure's reproducer
     history: tuple[tuple[str, Any], ...] = field(default=(), repr=False)
+    horizon: int | None = None  # a catalogue episode: the epochs its execution lasts (F-CONFORM horizon)
+
+    @property
+    def scenario(self) -> str | None:
+        """The official scenario of a catalogue episode (None for a case or a replay)."""
+        loc = self.location or ""
+        return loc.split(":")[1] if self.kind == "episode" and loc.startswith("catalogue:") else None
 
     @property
     def needs_observations(self) -> bool:
@@ -65,23 +73,32 @@ def from_case(case: Case) -> Item:
     )
 
 
-def catalogue_episodes(episodes: int, ticks: int, scenarios: Sequence[str] | None = None,
-                       index: int = 0) -> list[Item]:
-    """F-CONFORM: per official scenario, greedy plus ``episodes - 1`` seeded random episodes."""
+def horizon(instance: Mapping[str, Any]) -> int:
+    """The epochs an execution of ``instance`` lasts at most (its evaluation horizon, or batch timeout)."""
+    ev = instance["scenario"]["evaluation"]
+    return int(ev.get("horizon", ev.get("timeout", 0)))
 
-    if episodes <= 0 or ticks <= 0:
+
+def catalogue_episodes(episodes: int, ticks: int | None = None, scenarios: Sequence[str] | None = None,
+                       index: int = 0) -> list[Item]:
+    """F-CONFORM: per official scenario, greedy plus ``episodes - 1`` seeded random episodes, over the
+    whole horizon (``ticks`` None) or its first ``ticks`` epochs."""
+
+    if episodes <= 0 or (ticks is not None and ticks <= 0):
         return []
     out = []
     for name in scenarios or OFFICIAL_SCENARIOS:
         sc, recipes, profile = load_scenario_bundle(name)
         inst = make_instance(sc, recipes, profile, index=index)
         seed = inst["seeds"]["execution"]
+        span = horizon(inst)
+        steps = span if ticks is None else min(ticks, span)
         drivers = [("greedy", seed)] + [(f"random-{k}", k) for k in range(1, episodes)]
         for label, ctl_seed in drivers:
             out.append(Item(
                 id=f"e-{name}-{label}", kind="episode",
                 title=f"{inst['id']} · {label.split('-')[0]} controller" + (f" seed {ctl_seed}" if label != "greedy" else ""),
-                instance=inst, execution_seed=seed, ticks=ticks,
+                instance=inst, execution_seed=seed, ticks=steps, horizon=span,
                 controller={"name": label.split("-")[0], "seed": ctl_seed},
                 rules=(), invariants=(), tags=("episode", "catalogue", sc.get("family", ""), label.split("-")[0]),
                 location=f"catalogue:{name}:{index}",
@@ -123,4 +140,4 @@ def history_requests(history: Mapping[str, Any] | None) -> tuple[tuple[str, Any]
     return tuple(out)
 
 
-__all__ = ["Item", "from_case", "catalogue_episodes", "from_reproducer"]
+__all__ = ["Item", "from_case", "catalogue_episodes", "from_reproducer", "horizon", "history_requests"]

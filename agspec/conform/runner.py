@@ -103,6 +103,27 @@ class Summary:
                 if r.failure and r.failure.get("reproducer") and r.item.kind != "replay"]
 
     @property
+    def horizon(self) -> dict[str, dict[str, int]]:
+        """F-CONFORM: per official scenario, the catalogue episodes run and how many of their horizons'
+        ticks were checked (an episode that stops at a failure or at the end of its execution counts
+        what it ran)."""
+        out: dict[str, dict[str, int]] = {}
+        for r, _ in self.results:
+            if r.item.scenario is None or r.item.horizon is None:
+                continue
+            row = out.setdefault(r.item.scenario, {"episodes": 0, "ticks": 0, "horizon": 0})
+            row["episodes"] += 1
+            row["ticks"] += min(r.ticks, r.item.horizon)
+            row["horizon"] += r.item.horizon
+        return out
+
+    @property
+    def partial_horizon(self) -> bool:
+        """Whether some passing catalogue episode stopped before its horizon (``--ticks``)."""
+        return any(r.item.horizon is not None and o == "pass" and r.item.ticks < r.item.horizon
+                   for r, o in self.results)
+
+    @property
     def ticks(self) -> int:
         return sum(r.ticks for r, _ in self.results)
 
@@ -145,8 +166,12 @@ class Summary:
         code = self.exit_code
         if code == 0:
             skipped = sum(self.skips.values())
+            checked = sum(row["ticks"] for row in self.horizon.values())
+            total = sum(row["horizon"] for row in self.horizon.values())
             return ("conformant" if self.level == LEVEL_PARTS else f"conformant at level {level_name(self.level)}") \
-                + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "")
+                + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "") \
+                + (f" (catalogue episodes checked {checked} of {total} horizon ticks: --ticks)"
+                   if self.partial_horizon else "")
         if code == EXIT_NONDETERMINISTIC:
             return "nondeterministic implementation"
         if code == 1:
@@ -166,7 +191,7 @@ class Summary:
             "invariant_checks": self.invariant_checks, "expectations_checked": self.expectations,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
             "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
-            "history_dependent": self.history_dependent,
+            "history_dependent": self.history_dependent, "horizon": self.horizon,
             "duration_s": round(self.duration_s, 3), "golden_items": self.golden,
             "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
             "verdict": self.verdict, "exit_code": self.exit_code,
