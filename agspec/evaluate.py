@@ -21,6 +21,7 @@ from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
 from agspec.ir.fingerprint import fingerprint
+from agspec.policy import fresh
 from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError
 from agspec.policy.sessions import open_session
 
@@ -161,6 +162,8 @@ class Job:
 def run_job(job: Job) -> dict[str, Any]:
     """One episode as a record of the results bundle (F-POLICY-BUNDLE); a misbehaving policy gives an
     ``error`` record instead of stopping the campaign (F-POLICY-ERRORS)."""
+    if job.repeat and job.policy.kind == "python":
+        return fresh.run_fresh(job)  # F-POLICY-DETERMINISM: an in-process policy repeats in a new process
     started = time.perf_counter()
     record: dict[str, Any] = {"scenario": job.scenario, "controller": job.policy.label, "index": job.index}
     try:

@@ -4,6 +4,13 @@
   of simulators that mishandle R-ACTION-VALIDATION (tests/fakes/scripted_sim.py ``--coercion``:
   coercing without ``action_coerced``, only for out-of-range or only for masked actions, or with the
   wrong ``action``) — each is a divergence, where legal-only streams found none;
+* ``agspec conform`` runs catalogue episodes over their whole horizon by default: the generator is the
+  family of liars wrong only from epoch T on (``--wrong-at T``), T anywhere in the horizon — each
+  fails a default run, and a run cut short by ``--ticks`` says how much of the horizon it checked;
+* ``agspec evaluate`` repeats an in-process policy's episode in a fresh process: the generator is the
+  family of policies that pick by something fixed within a process and different between processes
+  (``hash()``, the order of a set of strings, the pid, a draw at import; tests/fakes/policies.py) —
+  each is reported nondeterministic, a deterministic policy is not.
 """
 
 from __future__ import annotations
@@ -91,3 +98,67 @@ def test_hypothesis_genes_map_their_top_range_to_illegal_actions():
     assert all(not 0 <= a < 114 or not obs[r]["mask"][a] for r, a in top.items()) and top
     legal = GenePolicy([[GENE_RANGE - 1] * len(robots)], illegal_rate=0.0).act(0, obs, robots)
     assert all(obs[r]["mask"][a] for r, a in legal.items())
+
+
+# --------------------------------------------------------------------------- the whole horizon (RES-CONFORM-HORIZON)
+
+
+def _conform(spec: str, tmp: Path, *extra: str) -> tuple[int, dict]:
+    result = CliRunner().invoke(cli, ["conform", "--impl", spec, "--no-suite", "--episodes", "1", "-k",
+                                      "e-flow-easy-greedy", "--format", "json", "--golden-cache", "off",
+                                      "--repro-dir", str(tmp / "repro"), *extra])
+    return result.exit_code, json.loads(result.stdout)
+
+
+@pytest.mark.parametrize("wrong_from", [1, 100, 250, 399])
+def test_a_liar_wrong_late_in_the_horizon_fails_a_default_run(wrong_from, tmp_path):
+    spec = shlex.join([sys.executable, str(SIM), "--wrong-at", str(wrong_from)])
+    code, out = _conform(spec, tmp_path)
+    assert code == 1, out["footer"]["verdict"]
+    (record,) = out["results"]
+    assert record["failure"]["tick"] == wrong_from
+    assert out["footer"]["horizon"] == {"flow-easy": {"episodes": 1, "ticks": wrong_from + 1, "horizon": 400}}
+
+
+def test_a_run_cut_short_says_how_much_of_the_horizon_it_checked(tmp_path):
+    spec = shlex.join([sys.executable, str(SIM), "--wrong-at", "100"])
+    code, out = _conform(spec, tmp_path, "--ticks", "60")
+    assert code == 0
+    assert out["footer"]["horizon"] == {"flow-easy": {"episodes": 1, "ticks": 60, "horizon": 400}}
+    assert "checked 60 of 400 horizon ticks" in out["footer"]["verdict"]
+
+
+# --------------------------------------------------------------------------- policies repeat in a fresh process
+
+
+def _repeated(factory: str) -> list[dict]:
+    pytest.importorskip("pettingzoo", reason="the MARL extra is not installed: pip install 'agspec[marl]'")
+    from agspec.catalogue import load_instance
+    from agspec.evaluate import Job, run_job
+    from agspec.policy.contract import parse_policy
+
+    inst = load_instance("coalition-easy", 0)
+    inst["scenario"]["evaluation"]["horizon"] = 20
+    spec = parse_policy(factory)
+    return [run_job(Job("coalition-easy", 0, spec, inst)), run_job(Job("coalition-easy", 0, spec, inst, repeat=True))]
+
+
+PROCESS_DEPENDENT = ("by_hash", "by_set_order", "by_pid", "by_process_draw")
+
+
+@pytest.mark.parametrize("factory", PROCESS_DEPENDENT)
+def test_a_policy_that_depends_on_its_process_is_nondeterministic(factory):
+    from agspec.cli.evaluate_view import nondeterminism
+
+    first, repeat = _repeated(f"{HERE / 'fakes' / 'policies.py'}:{factory}")
+    assert first["status"] == repeat["status"] == "ok", (first.get("error"), repeat.get("error"))
+    assert repeat["repeat"] is True
+    (found,) = nondeterminism([first, repeat])
+    assert "nondeterministic policy" in found["message"]
+
+
+def test_a_deterministic_policy_repeats_itself_in_a_fresh_process():
+    from agspec.cli.evaluate_view import nondeterminism
+
+    first, repeat = _repeated(f"{HERE.parent / 'examples' / 'policies' / 'heuristic.py'}:make_policy")
+    assert repeat["status"] == "ok" and nondeterminism([first, repeat]) == []
