@@ -32,11 +32,12 @@ from pathlib import Path
 from typing import Any
 
 from agspec.conform import compare
-from agspec.conform.impl import make_impl
+from agspec.conform.impl import ImplSpecError, make_impl
 from agspec.conform.items import from_reproducer
 from agspec.conform.lockstep import Options, Result, run_item
 
 NONDETERMINISTIC, HISTORY_DEPENDENT, REPRODUCED = "nondeterministic", "history_dependent", "reproduced"
+UNCONFIRMED = "unconfirmed"  # no fresh implementation could be started from the spec: nothing is claimed
 
 
 @dataclass(frozen=True)
@@ -70,14 +71,24 @@ def reproducer_of(first: Result, impl_spec: str, opts: Options, history: bool = 
                                    history=(first.history or ()) if history else ())
 
 
+class CannotStart(Exception):
+    """A fresh implementation cannot be made or started from the spec (an API caller's own object)."""
+
+
 def _fresh(data: dict[str, Any], impl_spec: str, timeout: float, validate: bool, opts: Options) -> Result:
     """``agspec conform --replay`` of ``data`` against a new implementation (closed afterwards)."""
     item = from_reproducer(data, str(data.get("id") or "reproducer"))
-    impl = make_impl(impl_spec, timeout=timeout, validate=validate)
     try:
-        return run_item(item, impl, opts)
+        impl = make_impl(impl_spec, timeout=timeout, validate=validate)
+    except ImplSpecError as exc:
+        raise CannotStart(str(exc)) from None
+    try:
+        result = run_item(item, impl, opts)
     finally:
         impl.close()
+    if result.outcome == "error" and (result.failure or {}).get("code") == "spawn":
+        raise CannotStart(result.message or "")
+    return result
 
 
 def fresh_run(data: dict[str, Any], impl_spec: str, timeout: float, validate: bool, opts: Options) -> Result:
@@ -95,7 +106,10 @@ def confirm(first: Result, impl_spec: str, *, timeout: float, validate: bool, op
     """Confirm the run's first failure (see the module docstring)."""
     want = signature(first)
     minimal = reproducer_of(first, impl_spec, opts)
-    alone = [fresh_run(minimal, impl_spec, timeout, validate, opts) for _ in range(max(1, replays))]
+    try:
+        alone = [fresh_run(minimal, impl_spec, timeout, validate, opts) for _ in range(max(1, replays))]
+    except CannotStart:
+        return Confirmation(UNCONFIRMED)
     if all(signature(r) == want for r in alone):
         return Confirmation(REPRODUCED)
     if len(alone) < 2:
@@ -135,6 +149,8 @@ def confirm_failures(failing: list[Result], impl_spec: str, *, timeout: float, v
         return out
     first = failing[0]
     verdict = confirm(first, impl_spec, timeout=timeout, validate=validate, opts=opts, replays=replays)
+    if verdict.kind == UNCONFIRMED:
+        return out
     if verdict.kind == NONDETERMINISTIC:
         out.nondeterministic = verdict.evidence
         return out
@@ -143,7 +159,10 @@ def confirm_failures(failing: list[Result], impl_spec: str, *, timeout: float, v
         out.rewrites.append((first, verdict.reproducer))
     for result in failing[1:limit]:
         want = signature(result)
-        alone = fresh_run(reproducer_of(result, impl_spec, opts), impl_spec, timeout, validate, opts)
+        try:
+            alone = fresh_run(reproducer_of(result, impl_spec, opts), impl_spec, timeout, validate, opts)
+        except CannotStart:
+            break
         if signature(alone) == want:
             continue
         evidence = {"id": result.item.id, "first": _seen(result), "replays": [_seen(alone)], "reproduced": 0,
@@ -184,4 +203,4 @@ def write(path: str | None, data: dict[str, Any]) -> str | None:
 
 
 __all__ = ["Confirmation", "Findings", "confirm", "confirm_failures", "CONFIRM_MAX", "fresh_run", "reproducer_of", "signature", "write",
-           "NONDETERMINISTIC", "HISTORY_DEPENDENT", "REPRODUCED"]
+           "NONDETERMINISTIC", "HISTORY_DEPENDENT", "REPRODUCED", "UNCONFIRMED"]
