@@ -131,7 +131,7 @@ class IllegalActions:
 
     def __init__(self, inner: Any, rate: float, seed: int):
         self.inner, self.rate, self.seed = inner, rate, seed
-        self.name = f"{inner.name}+illegal({rate:g})"
+        self.name = inner.name  # the rate is stated once, for the whole run (F-DIFF-ACTIONS)
         self.information, self.observes = inner.information, True
         self._rng = random.Random(f"illegal:{seed}")
 
