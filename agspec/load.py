@@ -34,7 +34,7 @@ from lark.exceptions import UnexpectedInput
 from agspec.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
-from agspec.formats import limits
+from agspec.formats import limits, positions
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
 
@@ -495,8 +495,8 @@ def _positions(doc: Document) -> Callable[[Iterable[str]], dict[str, Span]]:
         if wanted:
             tried.update(wanted)
             text = doc.text or ""
-            for ptr, offset in limits.pointer_offsets(text, wanted).items():
-                line, col = limits.offset_position(text, offset)
+            for ptr, offset in positions.pointer_offsets(text, wanted).items():
+                line, col = positions.offset_position(text, offset)
                 cache[ptr] = (line, col, line, col + 1)
         return cache
 

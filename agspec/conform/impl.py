@@ -39,15 +39,13 @@ from agspec.conform import protocol, teardown
 from agspec.conform.protocol import ProtocolError
 from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
+from agspec.conform.session import Budget, RequestLog
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
-from agspec.ir.fingerprint import fingerprint
 
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
 MATCHED: Any = type("Matched", (), {"__repr__": lambda self: "MATCHED", "__slots__": ()})()
-# F-REPRO: the most requests a session keeps for a history reproducer (beyond: not reproducible from it)
-SESSION_CAP = 1_000_000
 # on_message(direction "->" or "<-", cmd, message) — for --validate-protocol and transcripts
 MessageHook = Callable[[str, str, Any], None]
 
@@ -72,16 +70,8 @@ class Implementation:
         self.last_reply: Reply | None = None
         self.restarts = 0
         self.start_timeout: float | None = None  # the start request may take longer (process start-up)
-        # F-PROTOCOL giving up, scoped to what failed: failed starts in a row (no item runs without a
-        # started simulator) and failures per instance (fingerprint); None: never give up
-        self.max_restarts: int | None = None
-        self._start_failures = 0
-        self._failures: dict[str, int] = {}
-        self._loading: Mapping[str, Any] | None = None  # the instance of the session
-        # F-REPRO: the requests of this process's session so far (``log_request``); a new process starts empty
-        self.session: list[tuple[str, Any]] = []
-        self.session_complete = True
-        self._last_failure: dict[str, str] = {}
+        self.budget = Budget()  # RES-GIVE-UP-SCOPE (max_restarts None: never give up)
+        self.requests = RequestLog()  # F-REPRO: the requests of the current process
 
     # ---------------------------------------------------------------- transport (subclasses)
 
@@ -111,7 +101,7 @@ class Implementation:
         without being decoded — it is the golden reply byte for byte; any other reply is decoded
         and checked as always."""
         msg = protocol.request(cmd, self._next_seq(), **fields)
-        self.log_request(cmd, fields)
+        self.requests.record(cmd, fields)
         if self.on_message:
             self.on_message("->", cmd, msg)
         if self.validate:
@@ -122,18 +112,13 @@ class Implementation:
         return self._finish(msg, lambda: self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None),
                             golden)
 
-    def log_request(self, cmd: str, fields: Mapping[str, Any]) -> None:
-        """F-REPRO: keep the behavioural requests of this session (``load``, ``reset``, ``step``, in the
-        order sent) — what a reproducer must send first when a failure depends on them."""
-        if len(self.session) >= SESSION_CAP:
-            self.session_complete = False
-            return
-        if cmd == "load":
-            self.session.append(("load", fields["instance"]))
-        elif cmd == "reset":
-            self.session.append(("reset", fields.get("execution_seed")))
-        elif cmd == "step":
-            self.session.append(("step", dict(fields.get("actions") or {})))
+    @property
+    def max_restarts(self) -> int | None:
+        return self.budget.limit
+
+    @max_restarts.setter
+    def max_restarts(self, limit: int | None) -> None:
+        self.budget.limit = limit
 
     def _finish(self, msg: dict[str, Any], receive: Callable[[], Any], golden: tuple[str, str] | None) -> Reply:
         """The reply to ``msg`` (``receive()`` waits for it): MATCHED, or decoded and checked; a failure
@@ -158,7 +143,7 @@ class Implementation:
             # an `ok: false` answer to load or reset leaves the session in step (nothing else is in
             # flight): the simulator answered, so it keeps running (F-PROTOCOL, timing and isolation)
             if not (exc.code == "error_reply" and cmd in ("load", "reset")):
-                self._note_failure(cmd, exc)
+                self.budget.failed(cmd, exc)
                 self._fail()
             raise
         self.last_reply = reply  # what a resumed run mirrors (F-GOLDEN)
@@ -201,46 +186,21 @@ class Implementation:
         """Open the transport and hand-shake (``start``); returns the start reply (``info``)."""
         if self._alive:
             return self.info
-        if self.max_restarts is not None and self._start_failures >= self.max_restarts:
-            raise ProtocolError("gave_up", f"gave up: `{self.spec}` failed to start {self._start_failures} times in a "
-                                           f"row (last: {self._last_failure.get('start', '?')}); no item runs "
-                                           "without a started simulator", stderr=self.stderr_tail())
+        self.budget.check_start(self.spec)
         if self.info:
             self.restarts += 1
-        self.session, self.session_complete = [], True  # a new process (or adapter) has no history
+        self.requests.clear()  # a new process (or adapter) has no history
         try:
             self._open()
         except ProtocolError as exc:
-            self._start_failures += 1
-            self._last_failure["start"] = str(exc)
+            self.budget.failed("start", exc)
             raise
         self._alive = True
         reply = self._request("start", protocol=protocol.PROTOCOL)
-        self._start_failures = 0
+        self.budget.started()
         self.info = {k: v for k, v in reply.items() if k not in ("seq", "ok")}
         self.capabilities = protocol.normalize_capabilities(reply.get("capabilities"))
         return self.info
-
-    def _note_failure(self, cmd: str, exc: ProtocolError) -> None:
-        """Count a failure (crash, timeout, protocol error) against its scope: the start, or the instance
-        of the session."""
-        if cmd == "start":
-            self._start_failures += 1
-            self._last_failure["start"] = str(exc)
-        elif self._loading is not None:
-            fp = fingerprint(self._loading)
-            self._failures[fp] = self._failures.get(fp, 0) + 1
-
-    def _check_budget(self, instance: Mapping[str, Any]) -> None:
-        """F-PROTOCOL: an instance on which the simulator failed ``max_restarts`` times is not sent again."""
-        self._loading = instance
-        if self.max_restarts is None or not self._failures:
-            return
-        failed = self._failures.get(fingerprint(instance), 0)
-        if failed >= self.max_restarts:
-            name = instance.get("id") if isinstance(instance.get("id"), str) else "(no id)"
-            raise ProtocolError("gave_up", f"gave up on instance {name}: `{self.spec}` failed on it {failed} times "
-                                           "in this run (the harness no longer sends it; other instances still run)")
 
     def _ensure(self) -> None:
         if not self._alive:
@@ -249,7 +209,7 @@ class Implementation:
                 self._request("load", instance=self._instance)
 
     def load(self, instance: Mapping[str, Any]) -> None:
-        self._check_budget(instance)
+        self.budget.check_instance(instance, self.spec)
         if not self._alive:
             self.start()
         self._instance = None
@@ -421,7 +381,7 @@ class SubprocessImpl(Implementation):
         self.spec = command if isinstance(command, str) else shlex.join(command)
         self.timeout = float(timeout)
         self.start_timeout = max(self.timeout, 10.0)  # interpreter / JIT start-up is not a hang
-        self.max_restarts = max_restarts  # F-PROTOCOL: failed starts in a row, or failures on one instance
+        self.max_restarts = max_restarts  # RES-GIVE-UP-SCOPE: failed starts in a row, or failures on one instance
         self.cwd, self.env = cwd, dict(env) if env is not None else None
         self.proc: subprocess.Popen | None = None
         self._lines: queue.Queue = queue.Queue()

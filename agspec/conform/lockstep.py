@@ -115,7 +115,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reason:
             res.outcome, res.message = "skip", reason
             return res
-        before = tuple(impl.session) if impl.session_complete else None  # this process's history so far
+        before = impl.requests.snapshot()  # this process's history so far (F-CONFORM-HISTORY)
         if item.history:
             _send_history(impl, item.history)
         directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) \

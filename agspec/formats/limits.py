@@ -25,7 +25,7 @@ import re
 import stat
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping
+from typing import Any, Iterator, Mapping
 
 import yaml
 
@@ -221,10 +221,10 @@ def _decoder(limits: Limits) -> json.JSONDecoder:
 
 
 # One token of JSON text, for the error-path locator: a string, a number, a bracket, a colon or a comma.
-_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9][0-9.eE+-]*|[\[\]{}:,]')
+TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9][0-9.eE+-]*|[\[\]{}:,]')
 
 
-def _position(text: str, offset: int) -> tuple[int, int]:
+def position(text: str, offset: int) -> tuple[int, int]:
     line = text.count("\n", 0, offset) + 1
     return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
 
@@ -233,7 +233,7 @@ def _locate(text: str, kind: str, limits: Limits, detail: str = "") -> int | Non
     """Offset of the first token that breaks ``kind`` (walks the tokens once; error path only)."""
     stack: list[set[str] | None] = []  # per open container: the keys seen (objects) or None (arrays)
     expect_key = False
-    for m in _TOKEN.finditer(text):
+    for m in TOKEN.finditer(text):
         tok = m.group()
         first = tok[0]
         if first in "[{":
@@ -305,63 +305,6 @@ def _check_count(text: str, file: str | None, limits: Limits) -> None:
                            file=file, line=1, col=1)
 
 
-def _escape(token: str) -> str:
-    return token.replace("~", "~0").replace("/", "~1")
-
-
-def pointer_offsets(text: str, wanted: Iterable[str]) -> dict[str, int]:
-    """The offset in a JSON text of each wanted JSON Pointer: its member's key, or the value itself in
-    an array or at the root.  One walk over the tokens that stops when all are found, in memory
-    bounded by the nesting depth (F-LIMITS-POSITIONS: the source map of a large document)."""
-    want = set(wanted)
-    found: dict[str, int] = {}
-    if not want:
-        return found
-    stack: list[list[Any]] = []  # per open container: [is_object, pointer, index or key, key offset, expect key]
-    for m in _TOKEN.finditer(text):
-        tok = m.group()
-        first = tok[0]
-        top = stack[-1] if stack else None
-        if top is not None and top[0] and top[4] and first == '"':
-            try:
-                top[2] = json.loads(tok)
-            except ValueError:
-                top[2] = tok[1:-1]
-            top[3], top[4] = m.start(), False
-            continue
-        if first == ":":
-            continue
-        if first == ",":
-            if top is not None:
-                if top[0]:
-                    top[4] = True
-                else:
-                    top[2] += 1
-            continue
-        if first in "]}":
-            if stack:
-                stack.pop()
-            continue
-        if top is None:
-            ptr, at = "", m.start()
-        elif top[0]:
-            ptr, at = f"{top[1]}/{_escape(str(top[2]))}", top[3]
-        else:
-            ptr, at = f"{top[1]}/{top[2]}", m.start()
-        if ptr in want and ptr not in found:
-            found[ptr] = at
-            if len(found) == len(want):
-                return found
-        if first in "[{":
-            stack.append([first == "{", ptr, 0, m.start(), first == "{"])
-    return found
-
-
-def offset_position(text: str, offset: int) -> tuple[int, int]:
-    """1-based line and column of a character offset."""
-    return _position(text, offset)
-
-
 def parse_json(text: str, file: str | None = None, limits: Limits | None = None) -> Any:
     """The value of a JSON text within the limits (F-LIMITS); InputError at the offending token."""
     limits = limits or Limits.from_env()
@@ -370,7 +313,7 @@ def parse_json(text: str, file: str | None = None, limits: Limits | None = None)
     def located(kind: str, message: str, limit: str | None = None, detail: str = "",
                 code: str = "AG003", hint: str | None = None) -> InputError:
         offset = _locate(text, kind, limits, detail)
-        line, col = _position(text, offset) if offset is not None else (None, None)
+        line, col = position(text, offset) if offset is not None else (None, None)
         if limit is not None:
             return _limit_error(limit, message, limits, file=file, line=line, col=col)
         return InputError(code, message, file=file, line=line, col=col, hint=hint)
@@ -607,7 +550,7 @@ def check_dsl_text(text: str, file: str | None = None, limits: Limits | None = N
     limits = limits or Limits.from_env()
     m = re.search(_LONG_NAME % (limits.max_name_chars + 1), text)
     if m is not None:
-        line, col = _position(text, m.start())
+        line, col = position(text, m.start())
         raise _limit_error("max_name_chars", f"a name or number longer than {limits.max_name_chars} characters",
                            limits, file=file, line=line, col=col)
     # a token takes at least one character and most two (a name and a separator): short texts are not scanned
@@ -615,10 +558,10 @@ def check_dsl_text(text: str, file: str | None = None, limits: Limits | None = N
         count = 0
         for count, tok in enumerate(_DSL_TOKEN.finditer(text), 1):
             if count > limits.max_dsl_tokens:
-                line, col = _position(text, tok.start())
+                line, col = position(text, tok.start())
                 raise _limit_error("max_dsl_tokens", f"more than {limits.max_dsl_tokens} tokens in one document",
                                    limits, file=file, line=line, col=col)
 
 
 __all__ = ["InputError", "Limits", "check_dsl_text", "check_file", "count_values", "decode", "iter_json_lines",
-           "load_json", "offset_position", "parse_json", "pointer_offsets", "parse_yaml", "read_bytes", "read_text"]
+           "load_json", "parse_json", "TOKEN", "position", "parse_yaml", "read_bytes", "read_text"]
