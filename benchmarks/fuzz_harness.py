@@ -25,7 +25,6 @@ import argparse
 import itertools
 import json
 import os
-import shlex
 import sys
 import tempfile
 import time
@@ -42,20 +41,13 @@ from agspec.cli.main import cli  # noqa: E402
 from agspec.conform import runner  # noqa: E402
 from agspec.conform.impl import SubprocessImpl  # noqa: E402
 from agspec.conform.items import catalogue_episodes  # noqa: E402
+from scoping_cases import NAMES, scripted, small_items  # noqa: E402
 
-SIM = TESTS / "fakes" / "scripted_sim.py"
-NAMES = ("solo-1x2-flat", "pair-1x2-flat", "duo-1x2-flat")
 MODES = (None, ("load", "error:invalid_instance"), ("reset", "error:bad_seed"), ("load", "crash"),
          ("step", "crash"), ("step", "garbage"))
 
 
-def scripted(*args: str) -> str:
-    return shlex.join([sys.executable, str(SIM), *args])
-
-
 def scoping() -> tuple[int, list[str]]:
-    from test_conform_scoping import small_items
-
     tried, wrong = 0, []
     for modes in itertools.combinations_with_replacement(MODES, len(NAMES)):
         tried += 1

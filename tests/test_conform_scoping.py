@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import shlex
 import sys
-from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,29 +21,10 @@ from hypothesis import strategies as st
 from agspec.conform import runner
 from agspec.conform.cases import load_suite
 from agspec.conform.impl import SubprocessImpl
-from agspec.conform.items import Item, catalogue_episodes, from_case
+from agspec.conform.items import catalogue_episodes, from_case
 from agspec.conform.lockstep import DECLINE_HINT
 from agspec.conform.protocol import ProtocolError
-
-HERE = Path(__file__).resolve().parent
-SIM = HERE / "fakes" / "scripted_sim.py"
-INSTANCES = HERE / "mutants" / "instances"
-NAMES = ("solo-1x2-flat", "pair-1x2-flat", "duo-1x2-flat")
-
-
-def scripted(*args: str) -> str:
-    return shlex.join([sys.executable, str(SIM), *args])
-
-
-def small_items(names=NAMES, repeat: int = 1) -> list[Item]:
-    out = []
-    for k in range(repeat):
-        for name in names:
-            inst = json.loads((INSTANCES / f"{name}.json").read_text(encoding="utf-8"))
-            out.append(Item(id=f"e-{name}-{k}", kind="episode", title=name, instance=inst,
-                            execution_seed=inst["seeds"]["execution"], ticks=3,
-                            controller={"name": "greedy", "seed": 1}))
-    return out
+from scoping_cases import NAMES, scripted, small_items
 
 
 def test_the_original_release_refusing_custom_instances_keeps_the_catalogue_episodes():
