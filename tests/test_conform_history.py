@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 from agspec.conform import runner
 from history_cases import FLAGS, conform, judge, sim_spec
 
-@settings(max_examples=6, deadline=None, database=None, derandomize=True,
+@settings(max_examples=4, deadline=None, database=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 @given(flags=st.frozensets(st.sampled_from(FLAGS), min_size=1, max_size=3))
 def test_reproducers_reproduce_and_history_is_named(flags, tmp_path_factory):

@@ -10,7 +10,6 @@ left-behind process lives, and no process the simulator started survives the run
 
 from __future__ import annotations
 
-import itertools
 import json
 import os
 import shlex
@@ -44,8 +43,10 @@ def _sims(tag: str) -> list[int]:
     return out
 
 
-# (how the daemon holds the pipes, how the session ends)
-CASES = list(itertools.product(("session", "stdout", "stderr", "group"), ("stop", "crash", "hang")))
+# (how the daemon holds the pipes, how the session ends): each holder and each end at least once here;
+# benchmarks/fuzz_harness.py runs the whole product
+CASES = [("session", "stop"), ("session", "hang"), ("stdout", "crash"), ("stderr", "hang"), ("group", "crash"),
+         ("stderr", "stop")]
 
 
 @pytest.mark.parametrize("daemon, end", CASES)
