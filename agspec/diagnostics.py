@@ -61,9 +61,8 @@ class Diagnostic:
         """Render as text; with the source text, show the offending line and a caret."""
         out = [self.header()]
         if source is not None and self.line is not None:
-            lines = source.splitlines()
-            if 1 <= self.line <= len(lines):
-                text = lines[self.line - 1]
+            text = _source_line(source, self.line)
+            if text is not None:
                 num = str(self.line)
                 pad = " " * len(num)
                 col = max(1, self.col or 1)
@@ -72,6 +71,12 @@ class Diagnostic:
                 else:
                     width = max(1, len(text.rstrip()) - col + 1)
                 width = max(1, min(width, max(1, len(text) - col + 1)))
+                if len(text) > SHOWN_CHARS:  # a long line (a minified document): a window around the column
+                    start = max(0, col - 1 - SHOWN_CHARS // 3)
+                    shown = text[start:start + SHOWN_CHARS]
+                    text = ("…" if start else "") + shown + ("…" if start + SHOWN_CHARS < len(text) else "")
+                    col = col - start + (1 if start else 0)
+                    width = max(1, min(width, len(shown) - (col - (2 if start else 1))))
                 out.append(f" {pad} |")
                 out.append(f" {num} | {text}")
                 out.append(f" {pad} | {' ' * (col - 1)}{'^' * width}")
@@ -85,6 +90,25 @@ class Diagnostic:
         data = asdict(self)
         data["notes"] = list(self.notes)
         return {k: v for k, v in data.items() if v is not None and v != []}
+
+
+SHOWN_CHARS = 160  # characters of a source line shown with a diagnostic
+
+
+def _source_line(source: str, line: int) -> str | None:
+    """Line ``line`` (1-based, lines end at newline) of ``source``, without splitting the whole text."""
+    if line < 1:
+        return None
+    start = 0
+    for _ in range(line - 1):
+        start = source.find("\n", start) + 1
+        if start == 0:
+            return None
+    end = source.find("\n", start)
+    text = source[start:] if end < 0 else source[start:end]
+    if end < 0 and not text and line > 1:
+        return None
+    return text.rstrip("\r")
 
 
 def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None) -> Diagnostic:

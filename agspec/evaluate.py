@@ -21,6 +21,7 @@ from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state
 from agspec.interp.state import cell_id
 from agspec.ir.fingerprint import fingerprint
+from agspec.policy import fresh
 from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError
 from agspec.policy.host import DEFAULT_LOAD_TIMEOUT, PolicyHosts
 from agspec.policy.sessions import open_session
@@ -194,6 +195,8 @@ def run_job(job: Job, hosts: PolicyHosts | None = None,
     With ``hosts`` (a campaign worker's), a Python policy's episode runs in that worker's policy host
     (F-POLICY-HOST); otherwise here, its phases bounded by ``guard`` or the in-process alarm.
     """
+    if job.repeat and job.policy.kind == "python":
+        return fresh.run_fresh(job)  # F-POLICY-DETERMINISM: an in-process policy repeats in a new process
     if hosts is not None and job.policy.kind in HOSTED_KINDS:
         return hosts.run(job)
     started = time.perf_counter()

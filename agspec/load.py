@@ -34,7 +34,7 @@ from lark.exceptions import UnexpectedInput
 from agspec.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
-from agspec.formats import limits
+from agspec.formats import limits, positions
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
 
@@ -477,21 +477,33 @@ def _dsl_hint(doc: Document, issue: Issue) -> Issue:
     return replace(issue, hint=f"add `{spelling}`") if spelling else issue
 
 
-def _positions(doc: Document) -> Callable[[], dict[str, Span]]:
-    """The document's source map; a large JSON text loaded without one (``_srcmap``) is mapped on the
-    first call, i.e. only when there is a diagnostic to place."""
-    cache: list[dict[str, Span]] = []
+def _positions(doc: Document) -> Callable[[Iterable[str]], dict[str, Span]]:
+    """The document's source map for the pointers of some diagnostics.  A large JSON text, loaded
+    without one (``_srcmap``), is mapped only for those pointers and their ancestors, by one walk
+    over its tokens that stops when it has found them (F-LIMITS-POSITIONS): time linear in the text,
+    memory bounded by its depth."""
+    cache: dict[str, Span] = dict(doc.srcmap)
+    large = not doc.srcmap and doc.text is not None and len(doc.text) > POSITIONS_MAX_CHARS and doc.kind is not None
+    tried: set[str] = set()
 
-    def srcmap() -> dict[str, Span]:
-        if not cache:
-            found = doc.srcmap
-            if not found and doc.text is not None and len(doc.text) > POSITIONS_MAX_CHARS and doc.kind is not None:
-                try:
-                    found = json_positions(doc.text)[0]
-                except (UnexpectedInput, RecursionError):
-                    found = {}
-            cache.append(found)
-        return cache[0]
+    def srcmap(pointers: Iterable[str]) -> dict[str, Span]:
+        if not large:
+            return cache
+        wanted: set[str] = set()
+        for ptr in pointers:
+            while ptr not in wanted:
+                wanted.add(ptr)
+                if not ptr:
+                    break
+                ptr = ptr.rsplit("/", 1)[0]
+        wanted -= tried
+        if wanted:
+            tried.update(wanted)
+            text = doc.text or ""
+            for ptr, offset in positions.pointer_offsets(text, wanted).items():
+                line, col = positions.offset_position(text, offset)
+                cache[ptr] = (line, col, line, col + 1)
+        return cache
 
     return srcmap
 
@@ -510,7 +522,8 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
     if issues:  # F-CODES: a bad value gets its rule's code; the semantic checks load only when needed
         issues = importlib.import_module("agspec.ir.validate").rule_codes(doc.ir, issues)
     issues = [_dsl_hint(doc, i) for i in issues]
-    diags += [locate(i, doc.file, srcmap()) for i in issues]
+    where = srcmap(i.pointer for i in issues) if issues else {}
+    diags += [locate(i, doc.file, where) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
     resolver = (resolver or Resolver()).bind(doc)
@@ -526,5 +539,7 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
         else:
             # an unresolved name is reported once, by the reference check with the search hint
             unresolved = {d.pointer for d in references if d.pointer}
-            diags += [locate(i, doc.file, srcmap()) for i in found or [] if i.pointer not in unresolved]
+            found = [i for i in found or [] if i.pointer not in unresolved]
+            where = srcmap(i.pointer for i in found) if found else {}
+            diags += [locate(i, doc.file, where) for i in found]
     return diags

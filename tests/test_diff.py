@@ -83,7 +83,9 @@ def test_hypothesis_sequences_find_nothing_on_equal_implementations(pair_factory
 
 def test_mutant_divergence_is_shrunk_and_still_diverges(pair_factory):
     pair = pair_factory("reference", sim("wip-drift"))
-    result = D.explore(pair, [subject("solo-1x2-flat.json")], controllers=("random",), seed=0, ticks=30)
+    # legal actions only (F-DIFF-ACTIONS rate 0): the story below is the shrinker's from that episode
+    result = D.explore(pair, [subject("solo-1x2-flat.json")], controllers=("random",), seed=0, ticks=30,
+                       illegal_rate=0.0)
     assert len(result.findings) == 1
     run = result.findings[0].run
     assert run.divergence.where == "state" and run.divergence.pointer == "/wip"

@@ -34,7 +34,9 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
               help="Expected-failures file (YAML or JSON): {id: {outcome: fail|error, reason: ...}}.")
 @click.option("--episodes", type=int, default=2, show_default=True,
               help="Catalogue episodes per scenario: greedy plus N-1 seeded random (0: none).")
-@click.option("--ticks", type=int, default=60, show_default=True, help="Ticks per catalogue episode.")
+@click.option("--ticks", type=int, default=None,
+              help="Ticks per catalogue episode (default: the whole horizon, 400 for the official scenarios; "
+                   "the summary states how much of each scenario's horizon was checked).")
 @FORMAT_OPTION
 @click.option("--validate-protocol", is_flag=True, help="Validate every message in both directions against the schemas.")
 @click.option("--coverage", is_flag=True,
@@ -55,7 +57,7 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
                                      "(default ~/.cache/agspec/golden; `off`: every item runs live).")
 @executor_options
 def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
-            jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int, fmt: str,
+            jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int | None, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
             repro_dir: str, float_tolerance: float | None, require: str | None, golden_cache: str | None,
             campaign: ExecutorSpec) -> None:
@@ -69,7 +71,7 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
     if coverage:
         raise SystemExit(view.show_coverage(suite_dir, fmt, episodes, ticks))
     for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("--episodes", episodes, 0),
-                             ("--ticks", ticks, 0)):
+                             ("--ticks", 0 if ticks is None else ticks, 0)):
         if value < low or (name == "--impl-timeout" and value <= 0):
             fail(f"{name} must be {'> 0' if name == '--impl-timeout' else f'>= {low}'}, got {value}")
     if max_fail is not None and max_fail < 1:

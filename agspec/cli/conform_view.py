@@ -40,7 +40,7 @@ def _load_suite(suite_dir: str | None):
 
 
 def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, suite_dir: str | None,
-                episodes: int, ticks: int) -> tuple[list, str, set[str], bool]:
+                episodes: int, ticks: int | None) -> tuple[list, str, set[str], bool]:
     """(items, impl spec, every id that exists, whether the suite was loaded)."""
     from agspec.conform.items import catalogue_episodes, default_run, from_reproducer
 
@@ -178,6 +178,9 @@ def print_summary(summary, impl_spec: str) -> None:
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
         stdout.print(f"reproducer: {path}", markup=False)
+    if summary.horizon:  # F-CONFORM: how much of each scenario's horizon the catalogue episodes checked
+        stdout.print("horizon checked: " + ", ".join(f"{name} {row['ticks']}/{row['horizon']}"
+                                                     for name, row in summary.horizon.items()), markup=False)
     witnessed = sorted({r for rules in EVENT_RULES.values() for r in rules})
     missing = [r for r in witnessed if r not in summary.rules_exercised]
     stdout.print(f"rules exercised: {len(summary.rules_exercised)} of {len(witnessed)} the events witness"
@@ -188,9 +191,14 @@ def print_summary(summary, impl_spec: str) -> None:
     code = summary.exit_code
     if summary.nondeterministic is not None:
         nd = summary.nondeterministic
-        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) "
-                     f"reproduced it {nd['reproduced']} time(s): " + "; ".join(
+        stdout.print(f"{nd['id']}: failed {nd['first']['message']!r}, but {len(nd['replays'])} replay(s) of its "
+                     f"reproducer in a fresh process reproduced it {nd['reproduced']} time(s): " + "; ".join(
                          f"{r['outcome']} {r['message'] or ''}".strip() for r in nd["replays"]), markup=False)
+    if summary.history_dependent is not None:
+        hd = summary.history_dependent
+        stdout.print(f"history-dependent: {hd['message']} (F-CONFORM-HISTORY)", markup=False)
+        if hd.get("reproducer"):
+            stdout.print(f"reproducer with that history: {hd['reproducer']}", markup=False)
     style = {0: "bold green", 1: "bold red", EXIT_NONDETERMINISTIC: "bold red"}.get(code, "bold magenta")
     head, sep, rest = summary.verdict.partition(":")
     verdict = (head.upper() + sep + rest) if code in (1, EXIT_NONDETERMINISTIC) else summary.verdict

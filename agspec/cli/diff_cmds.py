@@ -37,6 +37,9 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
               help="Controllers choosing the actions (repeatable). Default: random and greedy.")
 @click.option("--small", type=click.IntRange(0), default=1, show_default=True,
               help="Small generated instances per scenario (its recipes on a 1..3 x 2..4 grid).")
+@click.option("--illegal-rate", type=click.FloatRange(0.0, 1.0), default=0.05, show_default=True,
+              help="Share of generated actions replaced by illegal ones — masked or outside 0..113 — so that "
+                   "action validation (R-ACTION-VALIDATION, `action_coerced`) is compared too (0: legal only).")
 @click.option("--hypothesis-examples", type=click.IntRange(0), default=0, show_default=True,
               help="Also search hypothesis-generated joint-action sequences (this many examples).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("agspec-diff"),
@@ -55,16 +58,18 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
               help="Workers, each with its own pair of implementations (default: 1 locally; with --executor ray "
                    "every CPU).")
 @executor_options
-def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis_examples, out_dir, impl_timeout,
-         shrink_budget, shrink_seconds, any_divergence, keep_going, fmt, jobs, campaign: ExecutorSpec) -> None:
+def diff(impls, scenarios, episodes, ticks, seed, controllers, small, illegal_rate, hypothesis_examples, out_dir,
+         impl_timeout, shrink_budget, shrink_seconds, any_divergence, keep_going, fmt, jobs,
+         campaign: ExecutorSpec) -> None:
     """Drive two implementations in lockstep on generated episodes; shrink and save the first divergence.
 
     Actions come from seeded random and greedy controllers acting on the driver's observations (the
     reference if one side is `reference`, else A) and, with --hypothesis-examples, from hypothesis-
-    generated joint-action sequences drawn from the masks. States, events, observations, masks and
-    the end flag are compared every tick. Exit 0: no divergence; 1: divergent; 3: an implementation
-    failed (crash, timeout, protocol) or nothing was compared; 5: the divergence does not reproduce
-    on replay (nondeterministic implementation); 2: usage.
+    generated joint-action sequences drawn from the masks; --illegal-rate of them (default 5 %) are
+    replaced by illegal actions, masked or out of range, which both sides must coerce to idle.
+    States, events, observations, masks and the end flag are compared every tick. Exit 0: no
+    divergence; 1: divergent; 3: an implementation failed (crash, timeout, protocol) or nothing was
+    compared; 5: the divergence does not reproduce on replay (nondeterministic implementation); 2: usage.
 
     One instance (its episodes with every controller) is one campaign item: with -j N or --executor
     ray the instances run on workers, each with its own pair of implementations, and the output and
@@ -94,7 +99,8 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
 
     start = time.perf_counter()
     findings: list[D.Finding] = []
-    report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.expected_side}
+    report: dict[str, Any] = {"implementations": {"A": impls[0], "B": impls[1]}, "driver": pair.expected_side,
+                              "illegal_rate": illegal_rate}
     # F-CONFORM-LEVELS: what the pair can compare is what both declare
     proven = [p for p in LEVEL_PARTS if p in pair.parts()]
     report["level"] = level_name(proven)
@@ -103,7 +109,8 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         pair.close()
     try:
         log(f"[bold]agspec diff[/]: A = {impls[0]}, B = {impls[1]}; expected values from "
-            f"{pair.expected_side} ({pair.expected_label}); {len(subjects)} instance(s)")
+            f"{pair.expected_side} ({pair.expected_label}); {len(subjects)} instance(s); "
+            f"{illegal_rate:.0%} of the actions illegal (masked or out of range, F-DIFF-ACTIONS)")
 
         def on_episode(label: str, run: D.Run) -> None:
             status = "[green]same[/]" if run.divergence is None else "[red]DIVERGES[/]"
@@ -111,7 +118,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
 
         exploration = D.explore(pair, subjects, controllers=controllers or ("random", "greedy"), seed=seed,
                                 ticks=ticks, on_episode=on_episode, first_only=not keep_going, executor=campaign,
-                                specs=(impls[0], impls[1]), timeout=impl_timeout)
+                                specs=(impls[0], impls[1]), timeout=impl_timeout, illegal_rate=illegal_rate)
         findings += exploration.findings
         for subject, cause in exploration.errors:  # CAMP-FAULTS: reported, never dropped
             log(f"  {subject.label:<48} [red]ERROR[/] {cause}")
@@ -121,7 +128,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, hypothesis
         if hypothesis_examples and (keep_going or not findings):
             log(f"  hypothesis: up to {hypothesis_examples} joint-action sequences of <= {min(ticks, 40)} ticks …")
             found, tried = D.hypothesis_search(pair, subjects, examples=hypothesis_examples, ticks=min(ticks, 40),
-                                               seed=seed)
+                                               seed=seed, illegal_rate=illegal_rate)
             exploration.hypothesis_examples = tried
             log(f"  hypothesis: {tried} sequences tried, " + ("a divergence" if found else "no divergence"))
             if found is not None:

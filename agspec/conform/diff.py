@@ -11,7 +11,9 @@ Where the joint actions come from (:class:`Policy`):
 
 * seeded controllers — ``random`` (C-RANDOM, uniform over the mask) and ``greedy`` (C-GREEDY) —
   acting on the *expected side's* observations: the reference if one of the two implementations is
-  the reference, otherwise implementation A (the other's observations are only compared);
+  the reference, otherwise implementation A (the other's observations are only compared); each
+  robot's action replaced with probability ``illegal_rate`` (default :data:`ILLEGAL_RATE`) by an
+  illegal one, masked or out of range (F-DIFF-ACTIONS), so that R-ACTION-VALIDATION is exercised;
 * hypothesis-generated joint-action sequences (:func:`hypothesis_search`, ``GenePolicy``):
   ``hypothesis.find`` searches for a sequence that makes the two diverge and shrinks it with
   hypothesis' own shrinker (integers towards 0 = idle, shorter lists = fewer ticks and robots);
@@ -53,7 +55,7 @@ from agspec.conform.driver import (
     robot_order,
 )
 from agspec.conform.impl import ImplSpecError, make_impl
-from agspec.conform.policies import ControllerPolicy, GenePolicy, ScriptPolicy
+from agspec.conform.policies import GENE_RANGE, ControllerPolicy, GenePolicy, ScriptPolicy, with_illegal
 from agspec.formats import limits
 from agspec.formats.actions import is_idle
 from agspec.ir.instance import make_instance
@@ -61,6 +63,8 @@ from agspec.ir.schemas import validate_schema
 from agspec.ir.validate import errors, validate_instance
 
 Json = dict[str, Any]
+# F-DIFF-ACTIONS: the share of generated actions replaced by illegal ones (masked or out of range)
+ILLEGAL_RATE = 0.05
 
 
 # =============================================================================================
@@ -205,6 +209,7 @@ class Plan:
     seed: int
     ticks: int
     first_only: bool
+    illegal_rate: float = ILLEGAL_RATE  # F-DIFF-ACTIONS
 
 
 def explore_subject(pair: Pair, plan: Plan, k: int) -> list[tuple[str, Run]]:
@@ -215,7 +220,7 @@ def explore_subject(pair: Pair, plan: Plan, k: int) -> list[tuple[str, Run]]:
     subject = plan.subjects[k]
     out: list[tuple[str, Run]] = []
     for controller in plan.controllers:
-        policy = ControllerPolicy(controller, plan.seed + k)
+        policy = with_illegal(ControllerPolicy(controller, plan.seed + k), plan.illegal_rate, plan.seed + k)
         run = lockstep(pair, subject.instance, subject.execution_seed, policy, plan.ticks)
         out.append((policy.name, replace(run, failure=None, replies=(None, None))))
         if run.divergence is not None and plan.first_only:
@@ -246,7 +251,7 @@ def inline(executor: ExecutorSpec | None) -> bool:
 def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequence[str] = ("random", "greedy"),
             seed: int = 0, ticks: int = 60, on_episode: Callable[[str, Run], None] | None = None,
             first_only: bool = True, executor: ExecutorSpec | None = None, specs: tuple[str, str] = ("", ""),
-            timeout: float = 5.0) -> Exploration:
+            timeout: float = 5.0, illegal_rate: float = ILLEGAL_RATE) -> Exploration:
     """One episode per subject and controller; stops at the first finding when ``first_only``.
 
     One subject is one campaign item (spec chapter 14).  With one local worker the items run here on
@@ -258,7 +263,7 @@ def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequ
     """
     result = Exploration()
     start = time.perf_counter()
-    plan = Plan(tuple(subjects), tuple(controllers), seed, ticks, first_only)
+    plan = Plan(tuple(subjects), tuple(controllers), seed, ticks, first_only, illegal_rate)
     if inline(executor):
         task = Task(_explore_item, (pair, plan))
     else:
@@ -287,13 +292,13 @@ def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequ
 
 
 def hypothesis_search(pair: Pair, subjects: Sequence[Subject], *, examples: int, ticks: int, seed: int,
-                      max_robots: int = 64) -> tuple[Finding | None, int]:
+                      max_robots: int = 64, illegal_rate: float = ILLEGAL_RATE) -> tuple[Finding | None, int]:
     """Search joint-action sequences with ``hypothesis.find``; returns the finding (already shrunk by
     hypothesis) and the number of sequences tried."""
 
     if not subjects or examples <= 0:
         return None, 0
-    genes = st.integers(min_value=0, max_value=2**16 - 1)
+    genes = st.integers(min_value=0, max_value=GENE_RANGE - 1)
     strategy = st.tuples(
         st.integers(min_value=0, max_value=len(subjects) - 1),
         st.lists(st.lists(genes, max_size=max_robots), min_size=1, max_size=max(1, ticks)),
@@ -305,7 +310,7 @@ def hypothesis_search(pair: Pair, subjects: Sequence[Subject], *, examples: int,
         tried += 1
         k, seq = example
         subject = subjects[k]
-        run = lockstep(pair, subject.instance, subject.execution_seed, GenePolicy(seq), len(seq))
+        run = lockstep(pair, subject.instance, subject.execution_seed, GenePolicy(seq, illegal_rate), len(seq))
         return run.divergence is not None
 
     config = settings(max_examples=examples, database=None, deadline=None, derandomize=False,
@@ -316,7 +321,7 @@ def hypothesis_search(pair: Pair, subjects: Sequence[Subject], *, examples: int,
     except NoSuchExample:
         return None, tried
     subject = subjects[k]
-    run = lockstep(pair, subject.instance, subject.execution_seed, GenePolicy(seq), len(seq))
+    run = lockstep(pair, subject.instance, subject.execution_seed, GenePolicy(seq, illegal_rate), len(seq))
     if run.divergence is None:  # not reproducible (a flaky implementation): report nothing shrunk
         return None, tried
     return Finding(subject, "hypothesis", run), tried

@@ -35,10 +35,11 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
-from agspec.conform import protocol
+from agspec.conform import protocol, teardown
 from agspec.conform.protocol import ProtocolError
 from agspec.conform.pipeline import Pipeline
 from agspec.conform.serve import Server
+from agspec.conform.session import Budget, RequestLog
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
 from agspec.formats import reply as reply_format
@@ -73,6 +74,8 @@ class Implementation:
         self.last_reply: Reply | None = None
         self.restarts = 0
         self.start_timeout: float | None = None  # the start request may take longer (process start-up)
+        self.budget = Budget()  # RES-GIVE-UP-SCOPE (max_restarts None: never give up)
+        self.requests = RequestLog()  # F-REPRO: the requests of the current process
 
     # ---------------------------------------------------------------- transport (subclasses)
 
@@ -102,6 +105,7 @@ class Implementation:
         without being decoded — it is the golden reply byte for byte; any other reply is decoded
         and checked as always."""
         msg = protocol.request(cmd, self._next_seq(), **fields)
+        self.requests.record(cmd, fields)
         if self.on_message:
             self.on_message("->", cmd, msg)
         if self.validate:
@@ -111,6 +115,14 @@ class Implementation:
         # start and load may build a whole model (interpreter start-up, instance compilation)
         return self._finish(msg, lambda: self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None),
                             golden)
+
+    @property
+    def max_restarts(self) -> int | None:
+        return self.budget.limit
+
+    @max_restarts.setter
+    def max_restarts(self, limit: int | None) -> None:
+        self.budget.limit = limit
 
     def _finish(self, msg: dict[str, Any], receive: Callable[[], Any], golden: tuple[str, str] | None) -> Reply:
         """The reply to ``msg`` (``receive()`` waits for it): MATCHED, or decoded and checked; a failure
@@ -138,7 +150,11 @@ class Implementation:
         except ProtocolError as exc:
             if not exc.stderr:
                 exc.stderr = self.stderr_tail()
-            self._fail()
+            # an `ok: false` answer to load or reset leaves the session in step (nothing else is in
+            # flight): the simulator answered, so it keeps running (F-PROTOCOL, timing and isolation)
+            if not (exc.code == "error_reply" and cmd in ("load", "reset")):
+                self.budget.failed(cmd, exc)
+                self._fail()
             raise
         except protocol.Unsupported:  # a declined instance: the session goes on (F-PROTOCOL-UNSUPPORTED)
             raise
@@ -192,11 +208,18 @@ class Implementation:
         """Open the transport and hand-shake (``start``); returns the start reply (``info``)."""
         if self._alive:
             return self.info
+        self.budget.check_start(self.spec)
         if self.info:
             self.restarts += 1
-        self._open()
+        self.requests.clear()  # a new process (or adapter) has no history
+        try:
+            self._open()
+        except ProtocolError as exc:
+            self.budget.failed("start", exc)
+            raise
         self._alive = True
         reply = self._request("start", protocol=protocol.PROTOCOL)
+        self.budget.started()
         self.info = {k: v for k, v in reply.items() if k not in ("seq", "ok")}
         self.capabilities = protocol.normalize_capabilities(reply.get("capabilities"))
         return self.info
@@ -208,6 +231,7 @@ class Implementation:
                 self._request("load", instance=self._instance)
 
     def load(self, instance: Mapping[str, Any]) -> None:
+        self.budget.check_instance(instance, self.spec)
         if not self._alive:
             self.start()
         self._instance = None
@@ -368,6 +392,7 @@ class SubprocessImpl(Implementation):
     STDERR_KEEP = 65536
     PIPELINE = 8  # F-GOLDEN: step requests a golden replay keeps in flight
     PIPE_BYTES = 1 << 20  # pipe and read-buffer size (Linux default pipe-max-size)
+    TEARDOWN_GRACE = 0.3  # seconds for the output to end once the process group is killed
 
     def __init__(self, command: str | list[str], timeout: float = 5.0, *, max_restarts: int = 10,
                  cwd: str | None = None, env: Mapping[str, str] | None = None, **kw: Any):
@@ -378,20 +403,19 @@ class SubprocessImpl(Implementation):
         self.spec = command if isinstance(command, str) else shlex.join(command)
         self.timeout = float(timeout)
         self.start_timeout = max(self.timeout, 10.0)  # interpreter / JIT start-up is not a hang
-        self.max_restarts = max_restarts
+        self.max_restarts = max_restarts  # RES-GIVE-UP-SCOPE: failed starts in a row, or failures on one instance
         self.cwd, self.env = cwd, dict(env) if env is not None else None
         self.proc: subprocess.Popen | None = None
         self._lines: queue.Queue = queue.Queue()
         self._stderr: collections.deque = collections.deque()
         self._stderr_size = 0
         self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._readers: list[threading.Thread] = []
 
     # ---------------------------------------------------------------- process
 
     def _open(self) -> None:
-        if self.restarts > self.max_restarts:
-            raise ProtocolError("gave_up", f"gave up after {self.max_restarts} restarts of `{self.spec}`",
-                                stderr=self.stderr_tail())
         # Replies with every observation run to ~100 KB: a 1 MiB pipe and read buffer let the simulator
         # write several pipelined replies ahead instead of blocking on a 64 KiB pipe (F-GOLDEN).  Where
         # the pipe size cannot be set (another OS, a per-user limit) the default pipe serves.
@@ -408,28 +432,28 @@ class SubprocessImpl(Implementation):
         with self._lock:
             self._stderr.clear()
             self._stderr_size = 0
-        threading.Thread(target=self._read_stdout, args=(self.proc, self._lines), daemon=True).start()
-        threading.Thread(target=self._read_stderr, args=(self.proc,), daemon=True).start()
+        # F-PROTOCOL-TEARDOWN: readers that a teardown can always stop (teardown.pump)
+        self._stop = threading.Event()
+        self._readers = [threading.Thread(target=self._read_stdout, args=(self.proc, self._lines, self._stop),
+                                          daemon=True),
+                         threading.Thread(target=self._read_stderr, args=(self.proc, self._stop), daemon=True)]
+        for reader in self._readers:
+            reader.start()
 
-    @staticmethod
-    def _read_stdout(proc: subprocess.Popen, lines: queue.Queue) -> None:
-        try:
-            for raw in iter(proc.stdout.readline, b""):
-                lines.put(raw)
-        except (OSError, ValueError):
-            pass
-        lines.put(None)  # end of stream
+    def _read_stdout(self, proc: subprocess.Popen, lines: queue.Queue, stop: threading.Event) -> None:
+        sink = teardown.LineSink(lines)
+        teardown.pump(proc.stdout.fileno(), sink, stop, self.PIPE_BYTES)
+        sink.finish()
 
-    def _read_stderr(self, proc: subprocess.Popen) -> None:
-        try:
-            for chunk in iter(lambda: proc.stderr.read1(4096), b""):
-                with self._lock:
-                    self._stderr.append(chunk)
-                    self._stderr_size += len(chunk)
-                    while self._stderr_size > self.STDERR_KEEP and len(self._stderr) > 1:
-                        self._stderr_size -= len(self._stderr.popleft())
-        except (OSError, ValueError):
-            pass
+    def _read_stderr(self, proc: subprocess.Popen, stop: threading.Event) -> None:
+        def keep(chunk: bytes) -> None:
+            with self._lock:
+                self._stderr.append(chunk)
+                self._stderr_size += len(chunk)
+                while self._stderr_size > self.STDERR_KEEP and len(self._stderr) > 1:
+                    self._stderr_size -= len(self._stderr.popleft())
+
+        teardown.pump(proc.stderr.fileno(), keep, stop, 65536)
 
     def stderr_tail(self, limit: int = 4000) -> str:
         with self._lock:
@@ -496,6 +520,7 @@ class SubprocessImpl(Implementation):
         proc, self.proc = self.proc, None
         if proc is None:
             return
+        readers, stop = self._readers, self._stop
         try:
             if proc.poll() is None:
                 try:
@@ -508,12 +533,21 @@ class SubprocessImpl(Implementation):
                     pass
             # F-PROTOCOL-TEARDOWN: the whole process group goes, also children the simulator left behind
             self._kill(proc)
+            # a reader still without end of file: a process in a session of its own holds the pipe
+            for reader in readers:
+                reader.join(self.TEARDOWN_GRACE)
+            if any(r.is_alive() for r in readers):
+                teardown.kill_pipe_writers(proc.stdout.fileno(), proc.stderr.fileno())
         finally:
+            stop.set()  # the readers end within teardown.POLL_S whatever holds the pipes
+            for reader in readers:
+                reader.join(2 * teardown.POLL_S + 1.0)
             for stream in (proc.stdin, proc.stdout, proc.stderr):
-                try:
-                    stream.close()
-                except (OSError, ValueError):
-                    pass
+                if stream is proc.stdin or not any(r.is_alive() for r in readers):
+                    try:
+                        stream.close()
+                    except (OSError, ValueError):
+                        pass
 
     @staticmethod
     def _kill(proc: subprocess.Popen) -> None:

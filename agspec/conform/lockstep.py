@@ -25,7 +25,7 @@ import traceback
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from agspec.conform import compare, driver, golden, invariants, known
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
@@ -70,6 +70,10 @@ class Result:
     skip_reason: str | None = None  # the simulator's reason when it answered `unsupported`
     event_types: set[str] = field(default_factory=set)  # of the reference's run: which rules fired
     reference: str = "live"  # F-GOLDEN: "golden" when the replies were matched against a golden trace
+    # F-REPRO: of a failing item, the requests its implementation's process had received before it
+    # (None: not kept, the session was too long); what a history reproducer sends first
+    history: tuple[tuple[str, Any], ...] | None = field(default=None, repr=False)
+    actions_sent: list[dict[str, int]] = field(default_factory=list, repr=False)  # of a failing item (F-REPRO)
     # RES-ASSERTION-LEVEL: the case's assertions evaluated, and those skipped by the part they need
     assertions_checked: int = 0
     assertions_skipped: dict[str, int] = field(default_factory=dict)
@@ -132,6 +136,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
     res = Result(item)
     t0 = time.monotonic()
     reference = None
+    before: tuple[tuple[str, Any], ...] | None = None
     try:
         impl.start()
         caps = impl.capabilities
@@ -139,7 +144,11 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if reason:
             res.outcome, res.message = "skip", reason
             return res
-        directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) else None
+        before = impl.requests.snapshot()  # this process's history so far (F-CONFORM-HISTORY)
+        if item.history:
+            _send_history(impl, item.history)
+        directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) \
+            and not item.history else None
         recorded = golden.lookup(directory, item) if directory is not None else None
         resume = _run_golden(res, item, impl, recorded) if recorded is not None else None
         if resume is True:
@@ -209,7 +218,29 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
     finally:
         if reference is not None:
             reference.close()
+        if res.outcome == "fail":
+            res.history = before
         res.duration_s = time.monotonic() - t0
+
+
+def _send_history(impl: Implementation, history: Sequence[tuple[str, Any]]) -> None:
+    """F-REPRO: send a history reproducer's earlier requests, in order, before its episode; their replies
+    are not compared (the original run compared them in their own items).  A refusal (``ok: false``,
+    ``unsupported``) is part of that history; any other failure is the item's error."""
+    for cmd, payload in history:
+        try:
+            if cmd == "load":
+                impl.load(payload)
+            elif cmd == "reset":
+                impl.reset(payload)
+            else:
+                impl.step(payload)
+        except Unsupported:
+            continue
+        except ProtocolError as exc:
+            if exc.code != "error_reply":
+                exc.message = f"while its history was sent again ({cmd}): {exc.message}"
+                raise
 
 
 def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool | tuple | None:
@@ -247,7 +278,15 @@ def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool
     return True
 
 
+# F-PROTOCOL-UNSUPPORTED: what a refusal of load or reset should have been, when it declines the instance
+DECLINE_HINT = ("a simulator that cannot represent an instance declines it with the error code `unsupported` "
+                "(F-PROTOCOL-UNSUPPORTED): the item is then skipped with its reason, not an error")
+
+
 def _protocol_error(res: Result, item: Item, exc: ProtocolError, tick: int) -> None:
+    declined = any(f"refused `{cmd}`" in exc.message for cmd in ("load", "reset"))
+    if exc.code == "error_reply" and declined and DECLINE_HINT not in exc.message:
+        exc.message += f" (hint: {DECLINE_HINT})"
     res.outcome = "error"
     res.message = str(exc)
     res.failure = {"type": exc.kind, "code": exc.code, "message": exc.message, "tick": tick,
@@ -390,14 +429,17 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
         failure["known_divergence"] = {**named, "expect": expect_entry(item.id, named["id"])}
     reproducer = item.location if item.kind == "replay" else None  # a replay is its own reproducer
     if opts.repro_dir and item.kind != "replay":
+        expectations = [e for e in item.case.expectations if e["after_tick"] <= t] if item.case is not None else []
         data = compare.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
                                        execution_seed=item.execution_seed, actions=sent,
-                                       impl=opts.impl_spec or impl.spec, failure=failure, tolerance=opts.tolerance)
+                                       impl=opts.impl_spec or impl.spec, failure=failure, tolerance=opts.tolerance,
+                                       expectations=expectations)
         try:
             reproducer = str(compare.save_reproducer(opts.repro_dir, data))
         except OSError as exc:
             failure["message"] += f" (reproducer not saved: {exc})"
     failure["reproducer"] = reproducer
+    res.actions_sent = [dict(a) for a in sent]
     res.failure = failure
     res.message = msg
     res.rendered = _render_fail(item, div, violations, failed_expectations, history, reproducer,

@@ -34,6 +34,7 @@ class Pipeline:
         while self.next < len(self.steps) and len(self.sent) < self.window:
             actions, golden = self.steps[self.next]
             msg = protocol.request("step", impl._next_seq(), actions=dict(actions))
+            impl.requests.record("step", msg)
             self.next += 1
             if self.window == 1:  # in process: the reply is computed when it is asked for
                 self.sent.append((msg, golden, None))

@@ -32,6 +32,7 @@ CODES: dict[str, tuple[str, str]] = {
     "exit": (CRASH, "the simulator exited (non-zero status or signal) before replying"),
     "eof": (CRASH, "the simulator closed its stdout before replying"),
     "exception": (CRASH, "the in-process adapter raised an exception"),
+    "harness_killed": (CRASH, "the harness worker died while running the item against a simulator it had started"),
     "timeout": (TIMEOUT, "no reply within the per-request timeout"),
     "malformed_json": (PROTOCOL_ERROR, "a line on stdout is not one JSON object (a blank line included)"),
     "bad_encoding": (PROTOCOL_ERROR, "a reply is not UTF-8, or a string in it holds a lone surrogate"),

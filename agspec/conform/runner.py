@@ -15,11 +15,14 @@ The level (F-CONFORM-LEVELS) is what the run compared: the behavioural parts of 
 
 from __future__ import annotations
 
+import contextlib
+import tempfile
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
+from agspec.conform import confirm, workers
 from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
@@ -61,6 +64,7 @@ class Summary:
     header: dict[str, Any] = field(default_factory=dict)
     require: tuple[str, ...] = ()  # --require: parts the run must prove
     nondeterministic: dict[str, Any] | None = None  # the evidence (F-CONFORM-NONDETERMINISM)
+    history_dependent: dict[str, Any] | None = None  # the evidence (F-CONFORM-HISTORY)
 
     @property
     def compared(self) -> dict[str, int]:
@@ -97,6 +101,27 @@ class Summary:
         """Every reproducer file this run wrote (F-REPRO), in item order."""
         return [r.failure["reproducer"] for r, _ in self.results
                 if r.failure and r.failure.get("reproducer") and r.item.kind != "replay"]
+
+    @property
+    def horizon(self) -> dict[str, dict[str, int]]:
+        """F-CONFORM: per official scenario, the catalogue episodes run and how many of their horizons'
+        ticks were checked (an episode that stops at a failure or at the end of its execution counts
+        what it ran)."""
+        out: dict[str, dict[str, int]] = {}
+        for r, _ in self.results:
+            if r.item.scenario is None or r.item.horizon is None:
+                continue
+            row = out.setdefault(r.item.scenario, {"episodes": 0, "ticks": 0, "horizon": 0})
+            row["episodes"] += 1
+            row["ticks"] += min(r.ticks, r.item.horizon)
+            row["horizon"] += r.item.horizon
+        return out
+
+    @property
+    def partial_horizon(self) -> bool:
+        """Whether some passing catalogue episode stopped before its horizon (``--ticks``)."""
+        return any(r.item.horizon is not None and o == "pass" and r.item.ticks < r.item.horizon
+                   for r, o in self.results)
 
     @property
     def ticks(self) -> int:
@@ -161,14 +186,20 @@ class Summary:
         code = self.exit_code
         if code == 0:
             skipped = sum(self.skips.values())
+            checked = sum(row["ticks"] for row in self.horizon.values())
+            total = sum(row["horizon"] for row in self.horizon.values())
             return ("conformant" if self.level == LEVEL_PARTS else f"conformant at level {level_name(self.level)}") \
-                + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "")
+                + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "") \
+                + (f" (catalogue episodes checked {checked} of {total} horizon ticks: --ticks)"
+                   if self.partial_horizon else "")
         if code == EXIT_NONDETERMINISTIC:
             return "nondeterministic implementation"
         if code == 1:
             if self.missing and not (self.counts["fail"] or self.counts["xpass"] or self.stale):
                 return (f"insufficient level: proved {level_name(self.level)}, --require needs "
                         f"{', '.join(self.missing)}")
+            if self.history_dependent is not None:
+                return "nonconformant: history-dependent (a failure needs what the simulator process did before)"
             return "nonconformant"
         return "vacuous" if self.vacuous else "harness or protocol error"
 
@@ -181,6 +212,7 @@ class Summary:
             "assertions": self.assertions, "known_divergences": self.known_divergences,
             "compared": self.compared, "level": level_name(self.level), "required": list(self.require),
             "skips": self.skips, "reproducers": self.reproducers, "rules_exercised": self.rules_exercised, "nondeterministic": self.nondeterministic,
+            "history_dependent": self.history_dependent, "horizon": self.horizon,
             "duration_s": round(self.duration_s, 3), "golden_items": self.golden,
             "conformant": self.exit_code == 0 and self.level == LEVEL_PARTS, "vacuous": self.vacuous,
             "verdict": self.verdict, "exit_code": self.exit_code,
@@ -190,19 +222,24 @@ class Summary:
 # --------------------------------------------------------------------------- workers (CAMP-EXECUTOR)
 
 
-def _open_impl(shared: tuple[str, float, bool, Options]) -> tuple[Implementation, Options]:
+def _open_impl(shared: tuple[str, float, bool, Options, str | None]) -> tuple[Implementation, Options, str | None]:
     """Per worker: its own implementation (never shared), made once and used for all its items."""
-    spec, timeout, validate, opts = shared
-    return make_impl(spec, timeout=timeout, validate=validate), opts
+    spec, timeout, validate, opts, watch = shared
+    return make_impl(spec, timeout=timeout, validate=validate), opts, watch
 
 
-def _close_impl(context: tuple[Implementation, Options]) -> None:
+def _close_impl(context: tuple[Implementation, Options, str | None]) -> None:
     context[0].close()  # stops the worker's simulator (CAMP-CANCEL)
 
 
-def _run_item(context: tuple[Implementation, Options], item: Item) -> Result:
-    impl, opts = context
-    return run_item(item, impl, opts)
+def _run_item(context: tuple, item: Item) -> Result:
+    impl, opts = context[0], context[1]
+    watch = context[2] if len(context) > 2 else None
+    marker = workers.mark(watch, item.id, impl) if watch else None  # evidence if this worker dies
+    result = run_item(item, impl, opts)
+    if marker is not None:
+        workers.clear(marker)
+    return result
 
 
 # --------------------------------------------------------------------------- the run
@@ -221,8 +258,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
     ``jobs`` local processes, each worker with its own implementation); results are reported in
     item order whatever order the workers finish in (CAMP-ORDER).  ``max_fail``: stop after that
     many failing outcomes (``-x`` = 1).  ``require``: the parts the run must prove (``--require``);
-    ``replays``: how often the first failing item is run again to tell a reproducible failure from a
-    nondeterministic one (0: never).
+    ``replays``: how often the first failing item's reproducer is replayed in a fresh process to tell a
+    reproducible failure from a history-dependent or a nondeterministic one (0: never; confirm).
     """
     opts = opts or Options(impl_spec=impl_spec)
     expectations = dict(expectations or {})
@@ -241,7 +278,8 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
         declared = {"state" if k == "privileged_state" else k for k, v in impl.capabilities.items() if v}
         summary.header["level"] = level_name([p for p in LEVEL_PARTS if p in declared])
         by_index: dict[int, tuple[Result, str, dict[str, Any]]] = {}
-        with ReportWriter(report_path) as report:
+        watch: str | None = None  # the workers' markers (conform.workers), with -j
+        with ReportWriter(report_path) as report, contextlib.ExitStack() as stack:
             report.write(summary.header)
             failures = 0
 
@@ -266,26 +304,29 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
             else:
                 if own:
                     impl.close()
-                task = Task(_run_item, (impl_spec, timeout, validate, opts), _open_impl, _close_impl)
+                watch = stack.enter_context(tempfile.TemporaryDirectory(prefix="agspec-workers-"))
+                task = Task(_run_item, (impl_spec, timeout, validate, opts, watch), _open_impl, _close_impl)
             outcomes = run_ordered(task, items, executor)
             try:
                 for index, outcome in outcomes:  # in item order (CAMP-ORDER), so the report is too
                     if isinstance(outcome, Done):
                         result = outcome.value
-                    else:  # CAMP-FAULTS: the item is a harness error naming the cause
-                        message = f"worker failed: {outcome.message()}"
-                        result = Result(items[index], "error", message,
-                                        {"type": "harness", "code": "worker", "message": message, "tick": None})
+                    else:  # CAMP-FAULTS: the item is an error naming the cause
+                        failure = workers.blame(watch, items[index].id) if outcome.worker_died else None
+                        if failure is None:  # the harness cannot tell who killed its worker
+                            message = f"worker failed: {outcome.message()}"
+                            failure = {"type": "harness", "code": "worker", "message": message, "tick": None}
+                        else:
+                            failure["message"] += f" ({outcome.message()})"
+                        result = Result(items[index], "error", failure["message"], failure)
                     if done(index, result):
                         break
             finally:
                 outcomes.close()  # -x / --max-fail / Ctrl-C: cancel the rest, stop the workers
             summary.results = [by_index[i][:2] for i in sorted(by_index)]
             summary.records = [by_index[i][2] for i in sorted(by_index)]
-            first = next((r for r, o in summary.results if r.outcome == "fail" and r.item.kind != "replay"), None)
-            if first is not None and replays > 0:
-                summary.nondeterministic = _replay_first_failure(first, impl if inline else None, impl_spec, timeout, validate, opts,
-                                                                 replays)
+            if replays > 0:
+                _confirm_failures(summary, impl_spec, timeout, validate, opts, replays)
             summary.not_run = len(items) - len(summary.results)
             for ident in summary.stale:
                 exp = expectations.get(ident)
@@ -300,36 +341,26 @@ def run(items: Sequence[Item], impl_spec: str, *, timeout: float = 5.0, validate
 
 
 def failure_signature(result: Result) -> tuple[Any, ...]:
-    """What must recur for a failure to count as reproduced: outcome, tick, place and invariant IDs."""
-    f = result.failure or {}
-    return (result.outcome, f.get("tick"), f.get("type"), f.get("path"), tuple(f.get("ids") or ()))
+    """What must recur for a failure to count as reproduced: outcome, tick, kind, place and invariant IDs."""
+    return confirm.signature(result)
 
 
-def _replay_first_failure(first: Result, impl: Implementation | None, impl_spec: str, timeout: float,
-                          validate: bool, opts: Options, replays: int) -> dict[str, Any] | None:
-    """F-CONFORM-NONDETERMINISM: run the first failing item ``replays`` more times (no reproducer
-    written); the evidence when any replay does not fail the same way, else None."""
-    import dataclasses
-
-    quiet = dataclasses.replace(opts, repro_dir=None)
-    own = impl is None
-    impl = impl or make_impl(impl_spec, timeout=timeout, validate=validate)
-    want = failure_signature(first)
-    seen: list[dict[str, Any]] = []
-    try:
-        for _ in range(replays):
-            again = run_item(first.item, impl, quiet)
-            seen.append({"outcome": again.outcome, "tick": (again.failure or {}).get("tick"),
-                         "path": (again.failure or {}).get("path"), "message": again.message})
-    finally:
-        if own:
-            impl.close()
-    reproduced = sum(1 for s in seen if (s["outcome"], s["tick"], s["path"]) == (want[0], want[1], want[3]))
-    if reproduced == len(seen):
-        return None
-    return {"id": first.item.id, "first": {"outcome": first.outcome, "tick": want[1], "path": want[3],
-                                           "message": first.message},
-            "replays": seen, "reproduced": reproduced}
+def _confirm_failures(summary: Summary, impl_spec: str, timeout: float, validate: bool, opts: Options,
+                      replays: int) -> None:
+    """F-CONFORM-NONDETERMINISM, F-CONFORM-HISTORY: replay the failures as their reproducers will be
+    replayed (a fresh process, :mod:`agspec.conform.confirm`); record what that showed and write the
+    history reproducers where the failures need them (at the paths already printed)."""
+    failing = [r for r, _ in summary.results if r.outcome == "fail" and r.item.kind != "replay"]
+    found = confirm.confirm_failures(failing, impl_spec, timeout=timeout, validate=validate, opts=opts,
+                                     replays=replays)
+    summary.nondeterministic = found.nondeterministic
+    written: dict[str, str | None] = {}
+    for result, data in found.rewrites:
+        path = (result.failure or {}).get("reproducer")
+        written[result.item.id] = confirm.write(path, data)
+    if found.history_dependent is not None:
+        summary.history_dependent = {**found.history_dependent,
+                                     "reproducer": written.get(found.history_dependent["id"])}
 
 
 __all__ = ["run", "Summary", "FAILING", "EXIT_NONDETERMINISTIC", "parse_level", "level_name", "failure_signature"]

@@ -52,6 +52,9 @@ class Limits:
     max_string_chars: int = 1024**2  # characters of one string
     max_name_chars: int = 256  # characters of one DSL name or number
     max_yaml_nodes: int = 100_000  # YAML nodes after alias expansion
+    max_nodes: int = 1_000_000  # values of one JSON document or JSON Lines record (bounded time)
+    max_records: int = 1_000_000  # records of one JSON Lines file
+    max_dsl_tokens: int = 100_000  # tokens of one DSL document
 
     ENV = {
         "max_bytes": "AGSPEC_MAX_BYTES",
@@ -61,6 +64,9 @@ class Limits:
         "max_string_chars": "AGSPEC_MAX_STRING_CHARS",
         "max_name_chars": "AGSPEC_MAX_NAME_CHARS",
         "max_yaml_nodes": "AGSPEC_MAX_YAML_NODES",
+        "max_nodes": "AGSPEC_MAX_NODES",
+        "max_records": "AGSPEC_MAX_RECORDS",
+        "max_dsl_tokens": "AGSPEC_MAX_DSL_TOKENS",
     }
 
     @classmethod
@@ -215,10 +221,10 @@ def _decoder(limits: Limits) -> json.JSONDecoder:
 
 
 # One token of JSON text, for the error-path locator: a string, a number, a bracket, a colon or a comma.
-_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9][0-9.eE+-]*|[\[\]{}:,]')
+TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9][0-9.eE+-]*|[\[\]{}:,]')
 
 
-def _position(text: str, offset: int) -> tuple[int, int]:
+def position(text: str, offset: int) -> tuple[int, int]:
     line = text.count("\n", 0, offset) + 1
     return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
 
@@ -227,7 +233,7 @@ def _locate(text: str, kind: str, limits: Limits, detail: str = "") -> int | Non
     """Offset of the first token that breaks ``kind`` (walks the tokens once; error path only)."""
     stack: list[set[str] | None] = []  # per open container: the keys seen (objects) or None (arrays)
     expect_key = False
-    for m in _TOKEN.finditer(text):
+    for m in TOKEN.finditer(text):
         tok = m.group()
         first = tok[0]
         if first in "[{":
@@ -267,14 +273,47 @@ def _locate(text: str, kind: str, limits: Limits, detail: str = "") -> int | Non
     return None
 
 
+# A JSON string literal (the unrolled form: one step per run of plain characters), removed before the
+# structural characters are counted (count_values).
+_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
+
+
+def _structural(text: str) -> int:
+    return text.count(",") + text.count("[") + text.count("{") + 1
+
+
+def count_values(text: str, bound: int | None = None) -> int:
+    """An upper bound on the number of values in a JSON text (F-LIMITS ``max_nodes``): every value
+    after the first of an array or object follows a comma, and every container opens with a bracket,
+    so values <= commas + brackets + 1 outside strings.  The characters are counted at C speed over the
+    whole text first; only when that exceeds ``bound`` are the strings (whose commas do not count)
+    taken out first."""
+    found = _structural(text)
+    if (bound is not None and found <= bound) or '"' not in text:
+        return found
+    return _structural(_STRING.sub("", text))
+
+
+def _check_count(text: str, file: str | None, limits: Limits) -> None:
+    """F-LIMITS ``max_nodes``, before any parsing: a value takes at least two characters but the last,
+    so a text of at most 2 * max_nodes characters cannot exceed it and is not scanned at all."""
+    if len(text) <= 2 * limits.max_nodes:
+        return
+    found = count_values(text, limits.max_nodes)
+    if found > limits.max_nodes:
+        raise _limit_error("max_nodes", f"about {found} JSON values, more than the limit {limits.max_nodes}", limits,
+                           file=file, line=1, col=1)
+
+
 def parse_json(text: str, file: str | None = None, limits: Limits | None = None) -> Any:
     """The value of a JSON text within the limits (F-LIMITS); InputError at the offending token."""
     limits = limits or Limits.from_env()
+    _check_count(text, file, limits)
 
     def located(kind: str, message: str, limit: str | None = None, detail: str = "",
                 code: str = "AG003", hint: str | None = None) -> InputError:
         offset = _locate(text, kind, limits, detail)
-        line, col = _position(text, offset) if offset is not None else (None, None)
+        line, col = position(text, offset) if offset is not None else (None, None)
         if limit is not None:
             return _limit_error(limit, message, limits, file=file, line=line, col=col)
         return InputError(code, message, file=file, line=line, col=col, hint=hint)
@@ -346,12 +385,18 @@ def iter_json_lines(path: str | Path, limits: Limits | None = None) -> Iterator[
         raise InputError("AG002", f"cannot read {file}: {exc.strerror or exc}", file=file,
                          exit_code=EXIT_USAGE) from None
     with fh:
-        lineno = 0
+        lineno = records = 0
         while True:
             raw = fh.readline(limits.max_record_bytes + 1)
             if not raw:
                 return
             lineno += 1
+            if raw.strip():
+                records += 1
+                if records > limits.max_records:  # F-LIMITS: the rest of the file is not read
+                    yield lineno, _limit_error("max_records", f"more than {limits.max_records} records", limits,
+                                               file=file, line=lineno, col=1)
+                    return
             if len(raw) > limits.max_record_bytes and not raw.endswith(b"\n"):
                 while raw and not raw.endswith(b"\n"):  # skip the rest of the overlong line
                     raw = fh.readline(limits.max_record_bytes + 1)
@@ -377,8 +422,9 @@ def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None)
     count, so an alias bomb is refused before any object is built), then constructed.
     """
     limits = limits or Limits.from_env()
+    _count_yaml_events(text, file, limits)
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = yaml.compose(text, Loader=_YAML_LOADER)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         raise InputError("AG008", f"not valid YAML: {getattr(exc, 'problem', None) or exc}", file=file,
@@ -398,6 +444,27 @@ def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None)
     if bad is not None:
         raise InputError("AG008", f"{bad} is not allowed: agspec files hold finite numbers", file=file)
     return value
+
+
+# LibYAML's parser where PyYAML has it (C speed), else the pure-Python one: same events, same nodes.
+_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+def _count_yaml_events(text: str, file: str | None, limits: Limits) -> None:
+    """F-LIMITS ``max_yaml_nodes`` before any node is composed: the parser's events are counted as
+    they come and parsing stops past the limit, so a huge document costs no more than the limit.
+    (Aliases are counted expanded afterwards, by :func:`check_yaml_nodes`.)"""
+    if len(text) <= limits.max_yaml_nodes:  # an event takes at least one character
+        return
+    try:
+        for count, event in enumerate(yaml.parse(text, Loader=_YAML_LOADER), 1):
+            if count > 2 * limits.max_yaml_nodes + 4:  # a collection has a start and an end event
+                mark = getattr(event, "start_mark", None)
+                raise _limit_error("max_yaml_nodes", f"more than {limits.max_yaml_nodes} YAML nodes", limits,
+                                   file=file, line=mark.line + 1 if mark else None,
+                                   col=mark.column + 1 if mark else None)
+    except yaml.YAMLError:
+        return  # composing reports the syntax error at its place
 
 
 def check_yaml_nodes(root: yaml.Node, file: str | None, limits: Limits) -> None:
@@ -473,15 +540,28 @@ def _non_finite(value: Any) -> str | None:
 _LONG_NAME = "[A-Za-z0-9_.-]{%d,}"
 
 
+# One DSL token: a name or number, a string, a comment or one punctuation character.
+_DSL_TOKEN = re.compile(r'#[^\n]*|"(?:[^"\\\n]|\\.)*"|[A-Za-z0-9_.-]+|[^\sA-Za-z0-9_.-]')
+
+
 def check_dsl_text(text: str, file: str | None = None, limits: Limits | None = None) -> None:
-    """DSL names and numbers within ``max_name_chars`` (checked before the parser sees the text)."""
+    """DSL names and numbers within ``max_name_chars`` and the document within ``max_dsl_tokens``
+    (checked before the parser sees the text)."""
     limits = limits or Limits.from_env()
     m = re.search(_LONG_NAME % (limits.max_name_chars + 1), text)
     if m is not None:
-        line, col = _position(text, m.start())
+        line, col = position(text, m.start())
         raise _limit_error("max_name_chars", f"a name or number longer than {limits.max_name_chars} characters",
                            limits, file=file, line=line, col=col)
+    # a token takes at least one character and most two (a name and a separator): short texts are not scanned
+    if len(text) > limits.max_dsl_tokens:
+        count = 0
+        for count, tok in enumerate(_DSL_TOKEN.finditer(text), 1):
+            if count > limits.max_dsl_tokens:
+                line, col = position(text, tok.start())
+                raise _limit_error("max_dsl_tokens", f"more than {limits.max_dsl_tokens} tokens in one document",
+                                   limits, file=file, line=line, col=col)
 
 
-__all__ = ["InputError", "Limits", "check_dsl_text", "check_file", "decode", "iter_json_lines", "load_json",
-           "parse_json", "parse_yaml", "read_bytes", "read_text"]
+__all__ = ["InputError", "Limits", "check_dsl_text", "check_file", "count_values", "decode", "iter_json_lines",
+           "load_json", "parse_json", "TOKEN", "position", "parse_yaml", "read_bytes", "read_text"]

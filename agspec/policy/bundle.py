@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
+from agspec.formats import limits
 from agspec.formats.schemas import self_check
 from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
 
@@ -90,35 +91,46 @@ class BundleWriter:
 
 
 def _recover(text: str) -> dict[str, Any] | None:
-    """An interrupted bundle: keep the header and every whole episode line."""
-    lines = text.split("\n")
-    for cut in range(len(lines), 0, -1):
-        body = "\n".join(lines[:cut]).rstrip().rstrip(",")
-        try:
-            doc = json.loads(body + "]}")
-        except json.JSONDecodeError:
+    """An interrupted bundle: keep the header and every whole episode line (the writer puts the
+    header and each episode on a line of its own), read line by line — linear in the file."""
+    head_line, _, rest = text.partition("\n")
+    try:
+        doc = limits.parse_json(head_line.rstrip() + "]}")
+    except limits.InputError:
+        return None
+    if not isinstance(doc, dict) or not isinstance(doc.get("episodes"), list):
+        return None
+    for line in rest.split("\n"):
+        line = line.strip().rstrip(",")
+        if not line:
             continue
-        if isinstance(doc, dict):
-            doc["complete"] = False
-            return doc
-    return None
+        try:
+            record = limits.parse_json(line)
+        except limits.InputError:
+            break
+        if not isinstance(record, dict):
+            break
+        doc["episodes"].append(record)
+    doc["complete"] = False
+    return doc
 
 
 def read_bundle(path: str | Path) -> dict[str, Any]:
-    """A results bundle, schema-checked; an interrupted one is recovered (``complete: false``)."""
+    """A results bundle, schema-checked; an interrupted one is recovered (``complete: false``).
+    Read within the F-LIMITS limits (size, UTF-8, values, depth, duplicate keys)."""
     from agspec.conform.protocol import validate
 
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BundleError(f"cannot read results bundle {path}: {getattr(exc, 'strerror', None) or exc}") from None
+        text = limits.read_text(path)
+    except limits.InputError as exc:
+        raise BundleError(f"cannot read results bundle: {exc}") from None
     try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        doc = _recover(text) if text.startswith('{"format": "' + FORMAT) else None
+        doc = limits.parse_json(text, str(path))
+    except limits.InputError as exc:
+        doc = _recover(text) if exc.code == "AG003" and text.startswith('{"format": "' + FORMAT) else None
         if doc is None:
-            raise BundleError(f"{path}: not a results bundle (line {exc.lineno}: {exc.msg})") from None
+            raise BundleError(f"not a results bundle: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise BundleError(f"{path}: not a results bundle ({FORMAT})")
     problems = validate("results", doc, limit=1)

@@ -75,7 +75,8 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
     except OSError as exc:  # a read error after the file was opened
         diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
     diags += _structure(records, lines, file)
-    diags.sort(key=lambda d: (d.line or 0))
+    # by line, except that a limit (F-LIMITS, AG006) comes first: the file was not read past it
+    diags.sort(key=lambda d: (d.code != "AG006", d.line or 0))
     return records, diags
 
 

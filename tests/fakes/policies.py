@@ -65,3 +65,42 @@ def nondeterministic(env):
 
 def not_callable(env):
     return 42
+
+
+# --------------------------------------------------------------------------- process-dependent policies
+# Each picks among the legal actions by something that is fixed within one Python process and differs
+# between processes — the same episode run twice in one process gives the same actions, in two
+# processes different ones (F-POLICY-DETERMINISM: the repeat runs in a fresh process).
+
+
+def _pick(observations, key):
+    return {a: int(np.flatnonzero(o["action_mask"])[key(a) % len(np.flatnonzero(o["action_mask"]))])
+            for a, o in observations.items()}
+
+
+def by_hash(env):
+    """str hashes are salted per process (PYTHONHASHSEED)."""
+    return lambda observations, infos: _pick(observations, lambda a: hash(f"{a}:{env.sim.t}"))
+
+
+def by_set_order(env):
+    """The iteration order of a set of strings follows their hashes."""
+    def act(observations, infos):
+        order = list({f"{a}:{env.sim.t}" for a in observations})
+        return _pick(observations, lambda a: order.index(f"{a}:{env.sim.t}") + env.sim.t)
+
+    return act
+
+
+def by_pid(env):
+    return lambda observations, infos: _pick(observations, lambda a: os.getpid() + env.sim.t)
+
+
+_PROCESS_DRAW = int.from_bytes(os.urandom(4), "little")  # drawn once per process, at import
+
+
+def by_process_draw(env):
+    return lambda observations, infos: _pick(observations, lambda a: _PROCESS_DRAW + env.sim.t + len(a))
+
+
+PROCESS_DEPENDENT = ("by_hash", "by_set_order", "by_pid", "by_process_draw")

@@ -32,6 +32,7 @@ import dataclasses
 import json
 import os
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -638,15 +639,33 @@ def rounded_support(session: Session) -> None:
 
 
 _FIRST_EPISODE = {"done": False}
+COIN_ENV = "AGSPEC_MUTANT_COIN"  # a directory of tickets, one per simulator process (see _first_process)
+
+
+def _first_process() -> bool:
+    """Whether this process took the first ticket in the coin directory (``$AGSPEC_MUTANT_COIN``, else one
+    per parent process): a stand-in for a simulator seeded by its pid or the clock, whose every process
+    may answer differently — deterministic here, so that the test that uses it is."""
+    directory = Path(os.environ.get(COIN_ENV) or Path(tempfile.gettempdir()) / f"agspec-coin-{os.getppid()}")
+    directory.mkdir(parents=True, exist_ok=True)
+    n = 0
+    while True:
+        try:
+            os.close(os.open(directory / f"ticket-{n}", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            return n == 0
+        except FileExistsError:
+            n += 1
 
 
 @mutant("nondeterministic", "F-CONFORM-NONDETERMINISM", "fail", ("nondeterministic",),
         Workload("pair-1x2-flat.json", "greedy", 8))
 def nondeterministic(session: Session) -> None:
-    """Diverges (WIP off by one after tick 2) in the first episode it runs only: a replay does not reproduce it."""
+    """Diverges (WIP off by one after tick 2) in the first episode of the first of its processes only: a
+    replay of its reproducer in a fresh process, alone or after the same history, does not reproduce it."""
+    first = _first_process()
 
     def reply(msg: dict, rep: dict) -> Any:
-        if msg.get("cmd") == "step" and rep.get("t") == 3 and not _FIRST_EPISODE["done"]:
+        if msg.get("cmd") == "step" and rep.get("t") == 3 and first and not _FIRST_EPISODE["done"]:
             _FIRST_EPISODE["done"] = True
             return {**rep, "state": {**rep["state"], "wip": rep["state"]["wip"] + 1}}
         return rep
