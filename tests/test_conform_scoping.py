@@ -31,7 +31,7 @@ def test_the_original_release_refusing_custom_instances_keeps_the_catalogue_epis
     """Eleven refusals (`invalid_instance`) no longer cost a restart each, so the run never gives up and
     the catalogue episodes that pass on their own are reported as passing."""
     custom = [from_case(c) for c in load_suite() if not c.instance["id"].startswith("ag32-")]
-    custom = [item for item in custom if not item.needs_observations][:12]
+    custom = [item for item in custom if not item.case.needs_observations][:12]
     items = custom + catalogue_episodes(1, 3, ["flow-easy", "coalition-easy"])
     impl = SubprocessImpl(scripted("--refuse-custom", "invalid_instance"), 15.0)
     try:

@@ -138,8 +138,8 @@ class IllegalActions:
         self.information, self.observes = inner.information, True
         self._rng = random.Random(f"illegal:{seed}")
 
-    def reset(self) -> None:
-        self.inner.reset()
+    def reset(self, grid: Mapping[str, Any] | None = None) -> None:
+        self.inner.reset(grid)
         self._rng = random.Random(f"illegal:{self.seed}")
 
     def act(self, t: int, observations, robots, simulator=None) -> dict[str, int]:
