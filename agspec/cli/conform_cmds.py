@@ -14,6 +14,7 @@ import click
 from agspec.campaign.executor import ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
+from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
 
 
 # =============================================================================================== conform
@@ -22,21 +23,19 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
 @click.command("conform")
 @click.option("--impl", "impl_spec", default=None, metavar="SPEC",
               help='Implementation under test: "reference", "python:pkg.module:factory" or a command line ("./sim --agspec").')
-@click.option("--impl-timeout", type=float, default=5.0, show_default=True, help="Per-request timeout, seconds.")
+@timeout_option("Seconds per protocol request before the simulator counts as hung (F-PROTOCOL-ERRORS).", 5.0)
 @click.option("-k", "keyword", default=None, metavar="EXPR", help="Select cases/episodes by id, title, tag, rule or glob (and/or/not).")
-@click.option("-x", "exitfirst", is_flag=True, help="Stop at the first failure or error.")
+@exitfirst_option(False)
 @click.option("--max-fail", type=int, default=None, metavar="N", help="Stop after N failures or errors.")
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None,
               help="Workers, each with its own implementation (default: 1 locally; with --executor ray every CPU).")
-@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
-              help="Write the JSON Lines report (F-REPORT) here, line by line.")
+@output_option("Write the JSON Lines report (F-REPORT) here, line by line.")
 @click.option("--expect", "expect_path", type=click.Path(dir_okay=False), default=None,
               help="Expected-failures file (YAML or JSON): {id: {outcome: fail|error, reason: ...}}.")
 @click.option("--episodes", type=int, default=2, show_default=True,
               help="Catalogue episodes per scenario: greedy plus N-1 seeded random (0: none).")
-@click.option("--ticks", type=int, default=None,
-              help="Ticks per catalogue episode (default: the whole horizon, 400 for the official scenarios; "
-                   "the summary states how much of each scenario's horizon was checked).")
+@horizon_option("Stop each catalogue episode after this many ticks (default: its whole horizon, 400 for the "
+                "official scenarios; the summary states how much of each scenario's horizon was checked).")
 @FORMAT_OPTION
 @click.option("--validate-protocol", is_flag=True, help="Validate every message in both directions against the schemas.")
 @click.option("--coverage", is_flag=True,
@@ -56,8 +55,8 @@ from agspec.cli.executor_opts import JOBS_HELP, executor_options
               show_envvar=True, help="Golden reference traces (F-GOLDEN): reuse the reference's recorded replies "
                                      "(default ~/.cache/agspec/golden; `off`: every item runs live).")
 @executor_options
-def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
-            jobs: int, report_path: str | None, expect_path: str | None, episodes: int, ticks: int | None, fmt: str,
+def conform(impl_spec: str | None, timeout: float, keyword: str | None, exitfirst: bool, max_fail: int | None,
+            jobs: int, output: str | None, expect_path: str | None, episodes: int, horizon: int | None, fmt: str,
             validate_protocol: bool, coverage: bool, replay_path: str | None, no_suite: bool, suite_dir: str | None,
             repro_dir: str, float_tolerance: float | None, require: str | None, golden_cache: str | None,
             campaign: ExecutorSpec) -> None:
@@ -68,12 +67,11 @@ def conform(impl_spec: str | None, impl_timeout: float, keyword: str | None, exi
     """
     from agspec.cli import conform_view as view
 
+    impl_timeout, report_path, ticks = timeout, output, horizon
     if coverage:
         raise SystemExit(view.show_coverage(suite_dir, fmt, episodes, ticks))
-    for name, value, low in (("--impl-timeout", impl_timeout, 0.0), ("--episodes", episodes, 0),
-                             ("--ticks", 0 if ticks is None else ticks, 0)):
-        if value < low or (name == "--impl-timeout" and value <= 0):
-            fail(f"{name} must be {'> 0' if name == '--impl-timeout' else f'>= {low}'}, got {value}")
+    if episodes < 0:
+        fail(f"--episodes must be >= 0, got {episodes}")
     if max_fail is not None and max_fail < 1:
         fail(f"--max-fail must be >= 1, got {max_fail}")
     if exitfirst:
@@ -138,10 +136,9 @@ def serve(observations: bool, masks: bool) -> None:
 @click.argument("targets", metavar="TRACE...", nargs=-1, required=True, type=click.Path())
 @FORMAT_OPTION
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
-@click.option("--report", "report_path", type=click.Path(dir_okay=False), default=None,
-              help="With several traces: write one JSON line per trace here, as each is checked.")
+@output_option("With several traces: write one JSON line per trace here, as each is checked.")
 @executor_options
-def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str | None,
+def check(targets: tuple[str, ...], fmt: str, jobs: int | None, output: str | None,
           campaign: ExecutorSpec) -> None:
     """Check traces (F-TRACE) against the eleven invariants (INV-*), with the vacuity guard.
 
@@ -155,6 +152,7 @@ def check(targets: tuple[str, ...], fmt: str, jobs: int | None, report_path: str
 
     from agspec.cli import conform_view as view
 
+    report_path = output
     if len(targets) == 1 and not Path(targets[0]).is_dir() and report_path is None:
         raise SystemExit(view.check_trace_command(targets[0], fmt))
     from agspec.cli.check_view import check_many_command

@@ -141,7 +141,7 @@ def print_summary(summary, impl_spec: str) -> None:
             stdout.print(result.rendered or f"{result.item.id} {result.item.title}: {result.message}", markup=False)
         stdout.print()
     if len(failing) > MAX_SHOWN:
-        stdout.print(f"… {len(failing) - MAX_SHOWN} more failures (see --report)")
+        stdout.print(f"… {len(failing) - MAX_SHOWN} more failures (see the -o report)")
     for ident in summary.stale:
         stdout.print(f"[bold red]STALE[/] {ident}: the expected-failures file lists an id that names no case or episode")
     table = Table(title=f"agspec conform · {impl_spec}")

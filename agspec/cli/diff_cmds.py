@@ -9,9 +9,11 @@ from typing import Any
 import click
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.catalogue import InvalidDocumentError, InvalidInstanceError
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
+from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError, parse_indices
+from agspec.cli.common import (EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, emit_json,
+                               fail, stderr, stdout)
 from agspec.cli.executor_opts import executor_options
+from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
 from agspec.conform.compare import reply_name
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
@@ -28,11 +30,12 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
 @click.option("--scenario", "scenarios", multiple=True, metavar="S",
               help="Catalogue scenario name, scenario .ag file or instance .json file (repeatable). "
                    f"Default: {', '.join(DEFAULT_SCENARIOS)}.")
-@click.option("--episodes", type=click.IntRange(1), default=1, show_default=True,
-              help="Suite indices 0..N-1 per catalogue scenario (one episode per index and controller).")
-@click.option("--ticks", type=click.IntRange(1), default=60, show_default=True, help="Ticks per episode.")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of the controllers, small instances and hypothesis.")
+@click.option("--indices", default="0", show_default=True, metavar="SPEC",
+              help="Suite indices per catalogue scenario, e.g. 0-3 or 1000,1003 (one episode per index and "
+                   "controller).")
+@horizon_option("Ticks per episode.", default=60)
+@click.option("--seed", type=SEED_RANGE, default=0, show_default=True,
+              help="Seed of this command's own random choices: the controllers, small instances and hypothesis.")
 @click.option("--controller", "controllers", multiple=True, type=click.Choice(["random", "greedy", "parallel-aware"]),
               help="Controllers choosing the actions (repeatable). Default: random and greedy.")
 @click.option("--small", type=click.IntRange(0), default=1, show_default=True,
@@ -42,24 +45,23 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
                    "action validation (R-ACTION-VALIDATION, `action_coerced`) is compared too (0: legal only).")
 @click.option("--hypothesis-examples", type=click.IntRange(0), default=0, show_default=True,
               help="Also search hypothesis-generated joint-action sequences (this many examples).")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("agspec-diff"),
-              show_default=True, help="Where the shrunk counterexample is saved (a conformance case file).")
-@click.option("--impl-timeout", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
-              help="Seconds per protocol request before a subprocess implementation counts as hung.")
+@output_option("The directory where the shrunk counterexample is saved (a conformance case file).",
+               default="agspec-diff", file=False)
+@timeout_option("Seconds per protocol request before a subprocess implementation counts as hung.", 5.0)
 @click.option("--shrink-budget", type=click.IntRange(0), default=400, show_default=True,
               help="At most this many replays while shrinking (0: do not shrink).")
 @click.option("--shrink-seconds", type=click.FloatRange(min=0.0), default=120.0, show_default=True,
               help="Time limit of shrinking.")
 @click.option("--any-divergence", is_flag=True,
               help="While shrinking, accept any divergence (default: the same compared part and pointer shape).")
-@click.option("--keep-going", is_flag=True, help="Run every episode and report every divergent episode.")
-@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@exitfirst_option(True)
+@FORMAT_OPTION
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None,
               help="Workers, each with its own pair of implementations (default: 1 locally; with --executor ray "
                    "every CPU).")
 @executor_options
-def diff(impls, scenarios, episodes, ticks, seed, controllers, small, illegal_rate, hypothesis_examples, out_dir,
-         impl_timeout, shrink_budget, shrink_seconds, any_divergence, keep_going, fmt, jobs,
+def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_rate, hypothesis_examples, output,
+         timeout, shrink_budget, shrink_seconds, any_divergence, exitfirst, fmt, jobs,
          campaign: ExecutorSpec) -> None:
     """Drive two implementations in lockstep on generated episodes; shrink and save the first divergence.
 
@@ -78,6 +80,11 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, illegal_ra
     """
     from agspec.conform import diff as D
 
+    ticks, impl_timeout, out_dir, keep_going = horizon, timeout, Path(output), not exitfirst
+    try:
+        wanted = parse_indices(indices, limit=10_000)
+    except CatalogueError as exc:
+        fail(f"--indices: {exc}", EXIT_USAGE)
     if len(impls) != 2:
         fail(f"give exactly two implementations (--impl A --impl B), got {len(impls)}", EXIT_USAGE)
     quiet = fmt == "json"
@@ -86,7 +93,7 @@ def diff(impls, scenarios, episodes, ticks, seed, controllers, small, illegal_ra
     subjects: list[D.Subject] = []
     for target in scenarios or DEFAULT_SCENARIOS:
         try:
-            subjects += D.load_subjects(target, episodes, seed, small=small)
+            subjects += D.load_subjects(target, wanted, seed, small=small)
         except limits.InputError as exc:
             fail(f"--scenario {target}: {exc}", exc.exit_code)
         except (InvalidDocumentError, InvalidInstanceError) as exc:  # F-EXIT-CODES: invalid input

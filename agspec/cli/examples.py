@@ -23,16 +23,16 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
     "run": ("run coalition-medium --controller greedy", "run flow-easy --index 2 --trace flow.jsonl --horizon 50"),
     "evaluate": ("evaluate --scenario flow-easy --controller greedy --indices 1000-1004",
                  "evaluate --policy examples/policies/heuristic.py:make_policy --name heuristic "
-                 "--scenario coalition-medium --indices 1000-1004 --out results.json",
+                 "--scenario coalition-medium --indices 1000-1004 -o results.json",
                  "evaluate --from results.json more.json",
                  "evaluate --paper -j 2 --executor ray"),
     "report": ("report results.json --to latex -o table.tex", "report results.json --to svg -o families.svg",
                "report runs/mappo-coalition-medium-s0 runs/mappo-coalition-medium-s1 --to png -o curves.png"),
-    "diff": ("diff --impl reference --impl 'python sim.py --agspec' --scenario flow-easy --ticks 40",
-             "diff --impl reference --impl 'python my_sim.py' --episodes 8 -j 2 --format json"),
-    "conform": ("conform --impl reference -x", "conform --impl './sim --agspec' --report report.jsonl"),
+    "diff": ("diff --impl reference --impl 'python sim.py --agspec' --scenario flow-easy --horizon 40",
+             "diff --impl reference --impl 'python my_sim.py' --indices 0-7 -j 2 --format json"),
+    "conform": ("conform --impl reference -x", "conform --impl './sim --agspec' -o report.jsonl"),
     "serve": ("serve --no-observations",),
-    "check": ("check flow.jsonl", "check flow.jsonl --format json", "check runs/ -j 2 --report check.jsonl"),
+    "check": ("check flow.jsonl", "check flow.jsonl --format json", "check runs/ -j 2 -o check.jsonl"),
     "trace": ("trace validate flow.jsonl",),
     "trace validate": ("trace validate flow.jsonl --format json",),
     "explain": ("explain M-RF-BR", "explain RES-TOPOLOGY-LINE AG305", "explain M- --format json"),
@@ -41,7 +41,7 @@ EXAMPLES: dict[str, tuple[str, ...]] = {
               "train --algorithm mappo --scenario coalition-medium --seed 0 --out runs/mappo-coalition-medium-s0 --resume",
               "train --campaign paper --out campaign/ --executor ray --address auto --gpus-per-run 0.5"),
     "render": ("render flow.jsonl -o replay.html",
-               "render --impl reference --scenario coalition-medium --ticks 60 -o replay.html"),
+               "render --impl reference --scenario coalition-medium --horizon 60 -o replay.html"),
 }
 
 

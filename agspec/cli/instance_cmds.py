@@ -76,7 +76,7 @@ def _bundle(name: str) -> tuple[dict, dict, dict]:
 
 def _make(name: str, index: int | None, seed: int | None, execution_seed: int | None) -> dict[str, Any]:
     if index is not None and seed is not None:
-        _fail("give either --index or --seed, not both", EXIT_USAGE)
+        _fail("give either --index or --generation-seed, not both", EXIT_USAGE)
     if index is None and seed is None:
         index = 0
     scenario, recipes, profile = _bundle(name)
@@ -89,7 +89,8 @@ def _make(name: str, index: int | None, seed: int | None, execution_seed: int | 
 
 INDEX_OPTION = click.option("--index", type=SEED_RANGE, default=None,
                             help="Suite index k (generation seed = base + k). Default: 0.")
-SEED_OPTION = click.option("--seed", type=SEED_RANGE, default=None, help="Explicit generation seed (instead of --index).")
+SEED_OPTION = click.option("--generation-seed", "seed", type=SEED_RANGE, default=None,
+                           help="An instance from this explicit generation seed instead of --index (S-SEEDS).")
 
 
 @click.command("instance")
@@ -171,7 +172,7 @@ def _instance_for_export(target: str, index: int | None, seed: int | None) -> di
             _fail(str(exc), exc.exit_code)
         if isinstance(data, dict) and data.get("kind") == "instance":
             if index is not None or seed is not None:
-                _fail("--index/--seed cannot be used with an instance file", EXIT_USAGE)
+                _fail("--index/--generation-seed cannot be used with an instance file", EXIT_USAGE)
             return data
     return _make(target, index, seed, None)
 

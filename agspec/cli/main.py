@@ -7,10 +7,12 @@ import sys
 import traceback
 
 import click
+from rich.text import Text
 
 from agspec import __version__
 from agspec.cli.common import EXIT_INTERNAL, stderr
 from agspec.cli.examples import attach
+from agspec.cli.grammar import rewrite
 
 # command name -> "module:function" (imported lazily so a broken module never breaks the CLI)
 COMMANDS = {
@@ -45,6 +47,15 @@ class LazyGroup(click.Group):
             return None
         module, attr = target.split(":")
         return attach(getattr(importlib.import_module(module), attr), name)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        # docs/cli.md: earlier spellings of options are hidden aliases, rewritten before the command parses
+        name, command, rest = super().resolve_command(ctx, args)
+        if name is not None:
+            rest, notes = rewrite(name, rest)
+            for note in notes:
+                stderr.print(Text.assemble(("deprecated", "yellow"), ": ", note))
+        return name, command, rest
 
     def invoke(self, ctx: click.Context) -> object:
         # F-EXIT-CODES: an interrupted run exits 130. click would turn the KeyboardInterrupt into

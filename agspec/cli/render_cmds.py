@@ -7,53 +7,54 @@ from pathlib import Path
 import click
 from rich.markup import escape
 
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, fail, stderr, stdout
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, SEED_RANGE, fail, stderr, stdout
+from agspec.cli.grammar import horizon_option, output_option, timeout_option
 from agspec.controllers import CONTROLLERS
 
 
 @click.command("render")
 @click.argument("trace_path", metavar="[TRACE]", required=False, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="The HTML file to write (default replay.html, or diff.html with --diff).")
+@output_option("The HTML file to write (default replay.html, or diff.html with --diff).")
 @click.option("--diff", "report", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="REPORT",
-              help="A conformance report (agspec conform --report): show its first divergence, the expected "
+              help="A conformance report (agspec conform -o FILE): show its first divergence, the expected "
                    "(reference) states beside the observed ones (what the implementation sent).")
 @click.option("--case", "case_id", default=None, help="With --diff: the failing case to show (default: the first divergence).")
-@click.option("--replay", is_flag=True,
+@click.option("--rerun", "replay", is_flag=True,
               help="With --diff: re-run the reproducer's implementation for its states after the divergence too "
                    "(default: the states the implementation sent, as the report recorded them).")
 @click.option("--impl", "impl", default=None, metavar="SPEC",
-              help="With --diff: the implementation to re-run (implies --replay). Without a TRACE: record a trace "
+              help="With --diff: the implementation to re-run (implies --rerun). Without a TRACE: record a trace "
                    "of this implementation (a command line, python:pkg.mod:factory or reference) and render it.")
 @click.option("--scenario", default=None, metavar="SCENARIO|INSTANCE",
               help="With --impl: the scenario (official name or .ag file) or instance .json to record.")
-@click.option("--index", type=int, default=0, show_default=True, help="With --scenario: the suite index.")
-@click.option("--ticks", type=click.IntRange(1), default=120, show_default=True, help="With --impl: ticks to record.")
+@click.option("--index", type=SEED_RANGE, default=0, show_default=True, help="With --scenario: the suite index.")
+@horizon_option("With --impl: ticks to record.", default=120)
 @click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True,
               help="With --impl: the reference controller choosing the actions.")
 @click.option("--observations/--no-observations", default=True, show_default=True,
               help="With --impl: record every robot's observation and mask in the trace.")
 @click.option("--trace", "save_trace", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="With --impl: also keep the recorded trace (F-TRACE JSON Lines) in this file.")
-@click.option("--impl-timeout", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
-              help="Seconds per protocol request before an implementation counts as hung.")
+@timeout_option("Seconds per protocol request before an implementation counts as hung.", 5.0)
 @click.option("--keyframe", type=click.IntRange(1), default=25, show_default=True,
               help="A full state every K ticks; per-tick diffs in between.")
 @click.option("--title", default=None, help="Page title (default: instance and controller).")
-def render(trace_path, out, report, case_id, replay, impl, scenario, index, ticks, controller, observations,
-           save_trace, impl_timeout, keyframe, title) -> None:
+def render(trace_path, output, report, case_id, replay, impl, scenario, index, horizon, controller, observations,
+           save_trace, timeout, keyframe, title) -> None:
     """Write one self-contained HTML file (no network) replaying TRACE, a divergence, or a recorded run.
 
     \b
       agspec render TRACE -o replay.html
-      agspec render --diff REPORT [--replay | --impl SPEC] -o diff.html
-      agspec render --impl "CMD ARGS" --scenario coalition-medium --ticks 120 -o replay.html
+      agspec render --diff REPORT [--rerun | --impl SPEC] -o diff.html
+      agspec render --impl "CMD ARGS" --scenario coalition-medium --horizon 120 -o replay.html
 
     Exit 0: written; 1: the trace or report cannot be replayed (located message); 2: usage or I/O;
     3: the implementation failed while being recorded.
     """
     from agspec.viewer.page import build_page
 
+    out = Path(output) if output is not None else None
+    ticks, impl_timeout = horizon, timeout
     modes = sum([trace_path is not None, report is not None, impl is not None and report is None])
     if modes != 1:
         fail("give exactly one of: a TRACE file, --diff REPORT, or --impl SPEC --scenario S", EXIT_USAGE)

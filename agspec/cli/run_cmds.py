@@ -11,10 +11,13 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, FORMAT_OPTION, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.grammar import horizon_option, timeout_option
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
 from agspec.policy.host import DEFAULT_LOAD_TIMEOUT
+
+PAPER_DIR = "paper-reproduction"  # `evaluate --paper`'s default output directory
 
 # Metrics shown by `agspec run` in its table: (key, label, format, spec ID). The ID column is what
 # `agspec explain ID` takes, so every label can be looked up without the paper.
@@ -91,9 +94,10 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 @click.command("run")
 @click.argument("target", metavar="SCENARIO|INSTANCE")
 @click.option("--index", type=SEED_RANGE, default=None, help="Suite index of the instance (default 0).")
-@click.option("--seed", type=SEED_RANGE, default=None, help="Explicit generation seed instead of a suite index.")
+@click.option("--generation-seed", "seed", type=SEED_RANGE, default=None,
+              help="An instance from this explicit generation seed instead of a suite index (S-SEEDS).")
 @click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True)
-@click.option("--horizon", type=int, default=None, help="Stop earlier than the scenario horizon.")
+@horizon_option()
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "result-v1"]), default="table", show_default=True)
 @click.option("--trace", "trace_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace exchange format (JSON Lines) to this file.")
@@ -101,8 +105,7 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 @click.option("--policy", default=None, metavar="PATH.py:NAME|module:NAME|\"CMD ARGS\"",
               help="Run a policy instead of a reference controller (spec/13-policy.md).")
 @click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
-@click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
-              help="Seconds a policy may take per decision.")
+@timeout_option("Seconds a policy may take per decision, loading excluded (F-POLICY-ERRORS).", 10.0)
 @click.option("--load-timeout", type=click.FloatRange(0.001, 86400), default=DEFAULT_LOAD_TIMEOUT, show_default=True,
               help="Seconds a Python policy may take to load: module import and factory(env) (F-POLICY-HOST).")
 def run(target: str, index: int | None, seed: int | None, controller: str, horizon: int | None, fmt: str,
@@ -200,8 +203,7 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
               help="Metrics to show (default delivered; with --policy also admitted completion).")
 @click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
 @click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")
-@click.option("--timeout", type=click.FloatRange(0.001, 3600), default=10.0, show_default=True,
-              help="Seconds a policy may take per decision, loading excluded (F-POLICY-ERRORS).")
+@timeout_option("Seconds a policy may take per decision, loading excluded (F-POLICY-ERRORS).", 10.0)
 @click.option("--load-timeout", type=click.FloatRange(0.001, 86400), default=DEFAULT_LOAD_TIMEOUT, show_default=True,
               help="Seconds a Python policy may take to load: module import (once per worker) and factory(env) "
                    "(F-POLICY-HOST).")
@@ -211,24 +213,23 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
 @click.option("--allow-incomplete", is_flag=True,
               help="Render rows with errors or missing episodes, marked ‡ with their n of N (F-POLICY-COVERAGE); "
                    "without it they are refused. Either way such rows make the exit status 1.")
-@click.option("--out", "out_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write a results bundle (written as episodes end).")
-@click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
+@click.option("-o", "--output", "output", type=click.Path(), default=None, metavar="FILE|DIRECTORY",
+              help="Write a results bundle to FILE (written as episodes end); with --paper, the DIRECTORY where "
+                   f"reproduction.md and reproduction.json are written (default ./{PAPER_DIR}).")
+@FORMAT_OPTION
 @click.option("--paper", is_flag=True, help="Run what the paper's tables report and compare (writes the report).")
-@click.option("--out-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"), show_default=True,
-              help="With --paper: where reproduction.md and reproduction.json are written.")
 @executor_options
 def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
              versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
              indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
              timeout: float, load_timeout: float, repeats: int, no_published: bool, allow_incomplete: bool,
-             out_path: Path | None, fmt: str, paper: bool,
-             out_dir: Path, campaign: ExecutorSpec) -> None:
+             output: str | None, fmt: str, paper: bool, campaign: ExecutorSpec) -> None:
     """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
     (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
-    if paper:
-        _evaluate_paper(campaign, out_dir, fmt)
+    if paper:  # never into the project's own docs/ by default: a directory of its own in the working directory
+        _evaluate_paper(campaign, Path(output or PAPER_DIR), fmt)
         return
+    out_path = Path(output) if output is not None else None
     from agspec.cli.evaluate_view import Campaign
 
     if bundles and not from_bundles:

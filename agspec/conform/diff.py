@@ -159,9 +159,9 @@ def small_instances(scenario: str, count: int, seed: int) -> list[Subject]:
     return out
 
 
-def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> list[Subject]:
+def load_subjects(target: str, indices: Sequence[int] | int, seed: int, *, small: int = 0) -> list[Subject]:
     """Subjects for one ``--scenario`` value: an instance IR file, or a scenario (name or .ag path)
-    with suite indices 0..episodes-1 plus ``small`` generated small instances."""
+    at the suite ``indices`` (an int ``n``: indices 0..n-1) plus ``small`` generated small instances."""
     path = Path(target)
     if path.suffix == ".json" and path.exists():
         # F-LIMITS bounded reading, schema and S-INSTANCE checks (CatalogueError, InvalidInstanceError)
@@ -169,7 +169,7 @@ def load_subjects(target: str, episodes: int, seed: int, *, small: int = 0) -> l
         if data is None:
             raise limits.InputError("AG004", "not an instance IR (kind must be \"instance\")", file=target)
         return [Subject(data.get("id") or path.stem, data, (data.get("seeds") or {}).get("execution"))]
-    out = catalogue_subjects(target, range(max(1, episodes)))
+    out = catalogue_subjects(target, range(max(1, indices)) if isinstance(indices, int) else list(indices))
     if small:
         out += small_instances(target, small, seed)
     return out

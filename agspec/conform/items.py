@@ -6,7 +6,7 @@
   nine official ones and the three matched geometry controls) at suite index 0, driven by
   the greedy controller (``e-{scenario}-greedy``) and by seeded random-masked controllers
   (``e-{scenario}-random-{k}``, seed k), acting on the *reference's* observations; ``--episodes N``
-  runs the greedy one and N - 1 random ones per scenario, over the whole horizon (``--ticks T``: its
+  runs the greedy one and N - 1 random ones per scenario, over the whole horizon (``--horizon T``: its
   first T epochs);
 * a **replay** of a reproducer file (F-REPRO).
 """
@@ -24,7 +24,7 @@ from agspec.ir.instance import make_instance
 # F-CONFORM: the scenarios of the catalogue episodes — every catalogue scenario, the matched geometry
 # controls included (their conflict variants are instance values a simulator must read)
 EPISODE_SCENARIOS: tuple[str, ...] = (*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED)
-# the default run of `agspec conform`: --episodes, and --ticks (None: every catalogue episode runs its
+# the default run of `agspec conform`: --episodes, and --horizon (None: every catalogue episode runs its
 # whole horizon, RES-CONFORM-HORIZON)
 DEFAULT_EPISODES, DEFAULT_TICKS = 2, None
 

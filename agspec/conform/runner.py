@@ -119,7 +119,7 @@ class Summary:
 
     @property
     def partial_horizon(self) -> bool:
-        """Whether some passing catalogue episode stopped before its horizon (``--ticks``)."""
+        """Whether some passing catalogue episode stopped before its horizon (``--horizon``)."""
         return any(r.item.horizon is not None and o == "pass" and r.item.ticks < r.item.horizon
                    for r, o in self.results)
 
@@ -190,7 +190,7 @@ class Summary:
             total = sum(row["horizon"] for row in self.horizon.values())
             return ("conformant" if self.level == LEVEL_PARTS else f"conformant at level {level_name(self.level)}") \
                 + (f" ({skipped} item(s) skipped, see the skips by reason)" if skipped else "") \
-                + (f" (catalogue episodes checked {checked} of {total} horizon ticks: --ticks)"
+                + (f" (catalogue episodes checked {checked} of {total} horizon ticks: --horizon)"
                    if self.partial_horizon else "")
         if code == EXIT_NONDETERMINISTIC:
             return "nondeterministic implementation"

@@ -55,7 +55,7 @@ def read_report(path: Path) -> list[dict[str, Any]]:
     if not records or records[0].get("type") != "header" or not str(records[0].get("format", "")).startswith(
             "agspec-conform-report/"):
         raise ReportError(f"{path}:1: not a conformance report (F-REPORT): the first record must be its header "
-                          "with format agspec-conform-report/1 (written by `agspec conform --report FILE`)")
+                          "with format agspec-conform-report/1 (written by `agspec conform -o FILE`)")
     return records
 
 
