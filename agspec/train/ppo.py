@@ -163,7 +163,7 @@ class PPOLearner:
         sums: dict[str, list[float]] = {k: [] for k in ("actor_loss", "critic_loss", "entropy", "approx_kl",
                                                         "clip_fraction")}
         stopped = False
-        count = obs.shape[0]
+        count, seen = obs.shape[0], 0
         for _epoch in range(p["epochs"]):
             order = torch.randperm(count, generator=self.gen, device=self.device)
             for idx in order.split(p["minibatch"]):
@@ -191,6 +191,7 @@ class PPOLearner:
                 critic_loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.critic.parameters(), p["max_grad_norm"])
                 self.critic_opt.step()
+                seen += int(idx.numel())
                 for key, value_ in (("actor_loss", actor_loss), ("critic_loss", critic_loss), ("entropy", entropy),
                                     ("approx_kl", approx_kl),
                                     ("clip_fraction", ((ratio - 1.0).abs() > p["clip"]).float().mean())):
@@ -208,7 +209,7 @@ class PPOLearner:
                 "explained_variance": explained_variance(predicted, returns),
                 "advantage_mean": float(adv_mean), "advantage_std": float(adv_std),
                 "entropy_coefficient": coef, "actor_updated": learn_actor, "kl_early_stop": stopped,
-                "minibatches": len(sums["entropy"])}
+                "minibatches": len(sums["entropy"]), "samples": seen}
 
     # ------------------------------------------------------------------ checkpoints
 
