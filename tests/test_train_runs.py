@@ -144,12 +144,12 @@ def test_validation_rows_and_the_policy_factory(tmp_path):  # T-VALIDATION, T-EV
     from agspec.pettingzoo import parallel_env
 
     config = tiny("ippo", **{"budget.env_steps": 16, "curriculum.realizations": 2, "curriculum.indices": [0, 1],
-                             "validation.indices": [200]})
+                             "validation.indices": [200], "validation.actions": ["greedy", "sample"]})
     summary = train(config, tmp_path / "run")
     rows = check_schemas(tmp_path / "run")
-    phases = [r["phase"] for r in rows if r["kind"] == "validation"]
-    assert phases == ["initial", "block-0", "block-1"]
-    assert summary["validation"]["phase"] == "block-1" and summary["validation"]["indices"] == [200]
+    phases = [(r["phase"], r["action"]) for r in rows if r["kind"] == "validation"]
+    assert phases == [(p, a) for p in ("initial", "block-0", "block-1") for a in ("greedy", "sample")]
+    assert summary["validation"]["phase"] == "block-1" and summary["validation"]["action"] == "greedy"
     env = parallel_env(SCENARIO, index=200)
     obs, infos = env.reset(seed=0)
     policy = load_policy(tmp_path / "run")(env)
@@ -158,6 +158,10 @@ def test_validation_rows_and_the_policy_factory(tmp_path):  # T-VALIDATION, T-EV
         assert all(obs[a]["action_mask"][x] == 1 for a, x in actions.items())
         assert actions == policy(obs, infos)  # deterministic
         obs, _r, _t, _tr, infos = env.step(actions)
+    obs, infos = env.reset(seed=0)
+    sampled = [load_policy(tmp_path / "run", "sample")(env) for _ in range(2)]
+    first, second = sampled[0](obs, infos), sampled[1](obs, infos)
+    assert first == second and all(obs[a]["action_mask"][x] == 1 for a, x in first.items())  # seeded by the episode
 
 
 def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CHECKPOINT

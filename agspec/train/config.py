@@ -48,7 +48,7 @@ _COMMON: dict[str, Any] = {
     # T-REWARD: coalition_milestone_v1 (A-REWARD-MILESTONE); support credit per method below
     "reward": {"name": "coalition_milestone_v1", "support_credit": None},
     # T-VALIDATION: online monitoring on the validation split (RES-VALIDATION-SCHEDULE)
-    "validation": {"indices": [200, 201, 202, 203, 204], "every_block": True},
+    "validation": {"indices": [200, 201, 202, 203, 204], "every_block": True, "actions": ["greedy"]},
     # T-RECORD: one training-record row per 16,000 environment steps (the original's interval)
     "record": {"every_steps": 16_000},
     # T-RUN-DIR: resumable checkpoints (block boundaries always; also every N steps where cheap)
@@ -238,6 +238,9 @@ def check(config: Mapping[str, Any]) -> None:
         raise ConfigError(f"runtime.threads must be a positive integer or null, got {threads!r}")
     if not isinstance(config["runtime"]["device"], str):
         raise ConfigError("runtime.device must be a string such as cpu or cuda")
+    actions = config["validation"]["actions"]
+    if not isinstance(actions, list) or not actions or any(a not in ("greedy", "sample") for a in actions):
+        raise ConfigError(f"validation.actions must be a non-empty list of greedy and sample, got {actions!r}")
     for index in config["validation"]["indices"]:
         if isinstance(index, bool) or not isinstance(index, int) or index < 0:
             raise ConfigError(f"validation.indices must be suite indices, got {index!r}")

@@ -156,27 +156,32 @@ class Run:
         self.notify({"phase": "train", "total": self.config["budget"]["env_steps"], **row})
 
     def validate(self, phase: str) -> None:
-        """T-VALIDATION: the current policy, greedily, on the validation indices (as agspec evaluate runs it)."""
-        indices = self.config["validation"]["indices"]
+        """T-VALIDATION: the current policy, greedily (and sampled, if asked), on the validation indices,
+        through the evaluation's own episode runner."""
         save_policy(self.out / rundir.POLICY, self.config, self.digest, self.learner.policy_net(), self.position["steps"])
-        if not indices:
+        if not self.validation:
             return
         from agspec.evaluate import run_episode
         from agspec.policy.contract import PolicySpec
+        from agspec.train.policy import SAMPLE_SUFFIX
 
-        spec = PolicySpec("checkpoint", str(self.out / rundir.POLICY), "validation")
-        delivered, completion = [], []
-        for instance in self.validation:
-            metrics = run_episode(instance, spec).metrics
-            delivered.append(int(metrics["delivered"]))
-            completion.append(float(metrics["completion_rate"]))
-        row = {"kind": "validation", "phase": phase, "steps": self.position["steps"], "indices": list(indices),
-               "delivered": delivered, "delivered_mean": float(np.mean(delivered)),
-               "completion_rate_mean": float(np.mean(completion)), "elapsed_s": self.elapsed()}
-        self.record.write(row)
-        self.position["validation"] = {k: row[k] for k in ("phase", "steps", "indices", "delivered", "delivered_mean",
-                                                           "completion_rate_mean")}
-        self.notify({"phase": "validation", "total": self.config["budget"]["env_steps"], **row})
+        for action in self.config["validation"]["actions"]:
+            target = str(self.out / rundir.POLICY) + (SAMPLE_SUFFIX if action == "sample" else "")
+            spec = PolicySpec("checkpoint", target, f"validation-{action}")
+            delivered, completion = [], []
+            for instance in self.validation:
+                metrics = run_episode(instance, spec).metrics
+                delivered.append(int(metrics["delivered"]))
+                completion.append(float(metrics["completion_rate"]))
+            row = {"kind": "validation", "phase": phase, "action": action, "steps": self.position["steps"],
+                   "indices": list(self.config["validation"]["indices"]), "delivered": delivered,
+                   "delivered_mean": float(np.mean(delivered)), "completion_rate_mean": float(np.mean(completion)),
+                   "elapsed_s": self.elapsed()}
+            self.record.write(row)
+            if action == "greedy" or self.position["validation"] is None or self.position["validation"]["phase"] != phase:
+                self.position["validation"] = {k: row[k] for k in ("phase", "action", "steps", "indices", "delivered",
+                                                                   "delivered_mean", "completion_rate_mean")}
+            self.notify({"phase": "validation", "total": self.config["budget"]["env_steps"], **row})
 
     # ------------------------------------------------------------------ the loop
 
