@@ -2,13 +2,15 @@
 its figures) trained on flow-easy and one coalition scenario for a small budget, several seeds, then
 delivered on the validation instances 200-204 against Random masked and Greedy.
 
-Usage:  python benchmarks/learn_check.py [--budget 20000] [--qmix-budget N] [--seeds 0,1,2]
+Usage:  python benchmarks/learn_check.py [--budget 5000] [--qmix-budget 1000] [--seeds 0,1,2] [--paper]
                                          [--scenarios flow-easy,coalition-easy] [--algorithms ippo,mappo,qmix]
                                          [-j 2] [--device cpu] [--envs 1] [--set KEY=VALUE …]
                                          [--deadline-s 840] [--out DIR] [--json]
 
-A --set whose section the algorithm lacks (ppo.* for QMIX, replay.* for PPO) is skipped for it.
-Each run is a fresh `agspec train` process (`--threads 1`, -j of them at a time) with the paper's
+A --set of a setting the algorithm lacks (ppo.* for QMIX, replay.* for PPO) is skipped for it.
+By default the runs use FAST settings (shorter PPO updates, learning rates 1e-3, target KL 0.05, shorter
+warm-ups) so that learning shows within minutes on a CPU; --paper keeps the table's settings and changes
+only the budget (the paper's runs need 1,536,000 steps).  Each run is a fresh `agspec train` process (`--threads 1`, -j of them at a time) with the paper's
 configuration but the budget (and any --set); validation runs once, after the last block, through the
 evaluation's own runner (T-VALIDATION, greedy action T-EVAL-ACTION).  The table shows, per scenario
 and method, each seed's mean delivered on 200-204, the mean over seeds, the training episodes'
@@ -37,6 +39,10 @@ from typing import Any
 from _common import machine
 
 PPO_DEFAULTS = ("validation.every_block=false", "checkpoint.every_steps=null", "validation.actions=[greedy, sample]")
+# --fast (the default): settings that learn within minutes on a CPU, against the table's (--paper):
+# shorter updates with bigger steps; everything else is tab:marlconfig
+FAST = ("ppo.steps_per_update=200", "ppo.minibatch=1000", "warmup.critic_steps=400", "lr.actor=0.001",
+        "lr.critic=0.001", "ppo.target_kl=0.05", "warmup.replay_transitions=400", "replay.target_sync_every=400")
 
 
 def run_one(out: Path, algorithm: str, scenario: str, seed: int, budget: int, device: str, envs: int,
@@ -48,7 +54,10 @@ def run_one(out: Path, algorithm: str, scenario: str, seed: int, budget: int, de
 
     defaults = paper_defaults(algorithm)
     for s in (*PPO_DEFAULTS, f"record.every_steps={max(envs, budget // 20 // envs * envs)}", *sets):
-        if s.split(".", 1)[0].split("=", 1)[0] in defaults:  # a setting of this algorithm (ppo.* is not QMIX's)
+        node: Any = defaults
+        for part in s.split("=", 1)[0].split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node is not None or s.split("=", 1)[0] == "checkpoint.every_steps":  # a setting this algorithm has
             cmd += ["--set", s]
     t0 = time.perf_counter()
     try:
@@ -92,8 +101,8 @@ def references(scenarios: list[str], indices: list[int]) -> dict[tuple[str, str]
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--budget", type=int, default=20_000)
-    ap.add_argument("--qmix-budget", type=int, default=None, help="default: the --budget")
+    ap.add_argument("--budget", type=int, default=5_000)
+    ap.add_argument("--qmix-budget", type=int, default=1_000, help="QMIX's budget (its TD updates are slow on a CPU)")
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--scenarios", default="flow-easy,coalition-easy")
     ap.add_argument("--algorithms", default="ippo,mappo,qmix")
@@ -101,6 +110,7 @@ def main() -> None:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--envs", type=int, default=1)
     ap.add_argument("--set", dest="sets", action="append", default=[])
+    ap.add_argument("--paper", action="store_true", help="the table's settings (only the budget changed)")
     ap.add_argument("--deadline-s", type=float, default=840.0)
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--json", action="store_true")
@@ -115,7 +125,8 @@ def main() -> None:
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         futures = [pool.submit(run_one, root / f"{a}-{s}-s{k}", a, s, k,
                                args.qmix_budget or args.budget if a == "qmix" else args.budget,
-                               args.device, args.envs, args.sets, deadline) for a, s, k in jobs]
+                               args.device, args.envs, [*(() if args.paper else FAST), *args.sets], deadline)
+                   for a, s, k in jobs]
         results = [f.result() for f in futures]
     refs = references(scenarios, [200, 201, 202, 203, 204])
     verdicts = []
@@ -136,6 +147,7 @@ def main() -> None:
                              "train_delivered_per_seed": [r["train_delivered"] for r in mine],
                              "steps_per_seed": [r["steps"] for r in mine], "learns": learns})
     report = {"machine": machine(), "budget": args.budget, "qmix_budget": args.qmix_budget or args.budget,
+              "settings": "paper" if args.paper else list(FAST),
               "device": args.device, "envs": args.envs, "sets": args.sets, "wall_s": round(time.perf_counter() - t0, 1),
               "out": str(root), "verdicts": verdicts, "runs": results,
               "references": {f"{s}/{c}": v for (s, c), v in refs.items()}}

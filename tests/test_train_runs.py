@@ -197,3 +197,28 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     res = runner.invoke(cli, ["evaluate", "--policy", str(tmp_path / "half"), "--scenario", SCENARIO,
                               "--indices", "1000"])
     assert res.exit_code == 2 and "not complete" in res.output
+
+
+def test_one_process_at_a_time_trains_into_a_run_directory(tmp_path):  # T-RUN-DIR
+    import fcntl
+
+    from agspec.train.rundir import RunDirError
+
+    out = tmp_path / "run"
+    out.mkdir()
+    with open(out / ".lock", "a") as fh:  # another process holds the run directory
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        import subprocess
+        import sys
+
+        code = ("from agspec.train.api import train, resolve_config; import sys\n"
+                "c = resolve_config('ippo', 'flow-easy', 0, {'budget.env_steps': 5, 'validation.indices': []})\n"
+                f"train(c, {str(out)!r})")
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+        assert proc.returncode != 0 and "another process is training into this directory" in proc.stderr
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    with pytest.raises(RunDirError, match="not empty"):
+        train(tiny("ippo"), foreign)
+    assert sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]  # nothing written into it

@@ -254,16 +254,17 @@ def run(config: dict[str, Any], out_dir: Any, *, resume: bool = False, progress:
     """Train one run into ``out_dir`` (see :func:`agspec.train.api.train`)."""
     cfg.check(config)
     out = Path(out_dir)
-    if resume and rundir.is_complete(out):
-        rundir.prepare(out, config, resume=True)  # still refuse another configuration
-        return rundir.read_summary(out)
-    has_checkpoint = rundir.prepare(out, config, resume)
-    if not (out / rundir.CONFIG).exists():
-        rundir.write_json_atomic(out / rundir.CONFIG, config)
-    if config["runtime"]["threads"] is not None:  # the process's intra-op threads: this command owns them
-        torch.set_num_threads(config["runtime"]["threads"])
-    run_ = Run(config, out, progress)
-    return run_.train(resume=has_checkpoint)
+    rundir.refuse_foreign(out)  # before the lock file is made: never write into a directory that is not a run
+    with rundir.exclusive(out):
+        if resume and rundir.is_complete(out):
+            rundir.prepare(out, config, resume=True)  # still refuse another configuration
+            return rundir.read_summary(out)
+        has_checkpoint = rundir.prepare(out, config, resume)
+        if not (out / rundir.CONFIG).exists():
+            rundir.write_json_atomic(out / rundir.CONFIG, config)
+        if config["runtime"]["threads"] is not None:  # the process's intra-op threads: this command owns them
+            torch.set_num_threads(config["runtime"]["threads"])
+        return Run(config, out, progress).train(resume=has_checkpoint)
 
 
 __all__ = ["run", "streams", "versions"]

@@ -12,17 +12,19 @@ No torch here: a campaign inspects run directories without the extra.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 from agspec.formats.limits import InputError, load_json
 
 RUN_SCHEMA = "agspec-training-run/1"
-CONFIG, SUMMARY, RECORD, CHECKPOINT, REPLAY, POLICY = (
-    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "replay.npz", "policy.pt")
+CONFIG, SUMMARY, RECORD, CHECKPOINT, REPLAY, POLICY, LOCK = (
+    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "replay.npz", "policy.pt", ".lock")
 
 
 class RunDirError(ValueError):
@@ -73,6 +75,30 @@ def is_complete(out_dir: str | os.PathLike) -> bool:
     return summary.get("status") == "complete" and path.is_file() and policy.get("sha256") == sha256_file(path)
 
 
+def refuse_foreign(out_dir: Path) -> None:
+    """RunDirError for a path that is a file, or a non-empty directory that holds no training run."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RunDirError(f"{out_dir} exists and is not a directory")
+    if out_dir.is_dir() and not (out_dir / CONFIG).is_file() and any(p.name != LOCK for p in out_dir.iterdir()):
+        raise RunDirError(f"{out_dir} is not empty and holds no training run; choose another --out")
+
+
+@contextlib.contextmanager
+def exclusive(out_dir: Path) -> Iterator[None]:
+    """T-RUN-DIR: one process trains into a run directory at a time (an advisory lock on its ``.lock``,
+    released when the process ends however it ends)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with open(out_dir / LOCK, "a") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RunDirError(f"{out_dir}: another process is training into this directory") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def prepare(out_dir: Path, config: Mapping[str, Any], resume: bool) -> bool:
     """Check ``out_dir`` against the run about to start; True when there is a checkpoint to resume.
 
@@ -85,7 +111,7 @@ def prepare(out_dir: Path, config: Mapping[str, Any], resume: bool) -> bool:
     if not out_dir.is_dir():
         raise RunDirError(f"{out_dir} exists and is not a directory")
     if not config_path.is_file():
-        if any(out_dir.iterdir()):
+        if any(p.name != LOCK for p in out_dir.iterdir()):
             raise RunDirError(f"{out_dir} is not empty and holds no training run; choose another --out")
         return False
     if not resume:
