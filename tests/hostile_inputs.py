@@ -146,6 +146,10 @@ COMMANDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "conform-expect": ("expect", ("conform", "--impl", "reference", "--no-suite", "--episodes", "1", "--ticks", "1",
                                   "--expect", "{}")),
     "conform-replay": ("reproducer", ("conform", "--impl", "reference", "--replay", "{}")),
+    "train": ("dsl", ("train", "--algorithm", "ippo", "--scenario", "{}", "--seed", "0", "--out", "{out}/run",
+                      "--print-config")),
+    "train-settings": ("expect", ("train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "0",
+                                  "--out", "{out}/run", "--config", "{}", "--print-config")),
 }
 
 

@@ -189,4 +189,8 @@ def test_train_print_config_and_settings_file(tmp_path):  # T-CLI
     settings.write_text("algorithm: mappo\n")
     res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
                                    "--out", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
-    assert res.exit_code == 2 and "command line says" in res.output
+    assert res.exit_code == 1 and "command line says" in res.output  # the file's content is invalid
+    settings.write_text("ppo:\n  nope: 1\n")
+    res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
+                                   "--out", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
+    assert res.exit_code == 1 and "s.yaml" in res.output and "ppo has no 'nope'" in res.output

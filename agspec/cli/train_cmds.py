@@ -1,7 +1,8 @@
 """`agspec train`: one training run of IPPO, MAPPO or QMIX as tab:marlconfig gives them (T-CLI).
 
-Exit codes (F-EXIT-CODES): 2 for a bad option, setting, scenario or run directory and for a missing
-extra; 130 when interrupted (the run resumes from its last checkpoint); 4 for a bug in agspec.
+Exit codes (F-EXIT-CODES): 1 for a scenario or settings file whose content is invalid; 2 for a bad
+option or setting, a file that cannot be reached, an unusable run directory and a missing extra; 130
+when interrupted (the run resumes from its last checkpoint); 4 for a bug in agspec.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from typing import Any, Mapping
 
 import click
 
-from agspec.cli.common import EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
 
 ALGORITHMS = ("ippo", "mappo", "qmix")
 IDENTITY = ("algorithm", "scenario", "seed")
@@ -24,15 +25,15 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
     try:
         data = load_json(path) if path.suffix.lower() == ".json" else parse_yaml(read_text(path), str(path))
     except InputError as exc:
-        fail(str(exc), EXIT_USAGE)
+        fail(str(exc), exc.exit_code)
     if not isinstance(data, dict):
-        fail(f"{path}: a settings file must hold a mapping of settings, e.g. {{ppo: {{clip: 0.2}}}}")
+        fail(f"{path}: a settings file must hold a mapping of settings, e.g. {{ppo: {{clip: 0.2}}}}", EXIT_INVALID)
     data = dict(data)
     for key in (*IDENTITY, "schema"):
         if key in data:
             value = data.pop(key)
             if key in options and value != options[key]:
-                fail(f"{path}: {key} is {value!r} but the command line says {options[key]!r}")
+                fail(f"{path}: {key} is {value!r} but the command line says {options[key]!r}", EXIT_INVALID)
     return data
 
 
@@ -64,14 +65,24 @@ def train(algorithm: str, scenario: str, seed: int, out: Path, steps: int | None
     the final policy into --out; `agspec evaluate --policy OUT` evaluates it, `agspec report OUT --to
     svg` draws its curves.  Needs the extra agspec[train] (PyTorch).
     """
-    from agspec.train.api import MissingExtra, resolve_config
-    from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override
+    from agspec.train.api import MissingExtra, scenario_family
+    from agspec.train.config import ALGORITHMS as KNOWN, ConfigError, flatten_settings, paper_defaults, parse_override
+    from agspec.train.config import resolve
 
+    assert algorithm in KNOWN
     try:
-        overrides: dict[str, Any] = {}
-        if config_file is not None:
-            data = _settings_file(config_file, {"algorithm": algorithm, "scenario": scenario, "seed": seed})
-            overrides.update(flatten_settings(data, paper_defaults(algorithm)))
+        family = scenario_family(scenario)
+    except ConfigError as exc:  # an invalid scenario file is invalid input; an unknown or unreadable one, usage
+        fail(str(exc), EXIT_INVALID if exc.invalid_input else EXIT_USAGE)
+    overrides: dict[str, Any] = {}
+    if config_file is not None:
+        data = _settings_file(config_file, {"algorithm": algorithm, "scenario": scenario, "seed": seed})
+        overrides = flatten_settings(data, paper_defaults(algorithm))
+        try:
+            resolve(algorithm, scenario, seed, family, overrides)
+        except ConfigError as exc:  # a setting of the file: the file's content is invalid
+            fail(f"{config_file}: {exc}", EXIT_INVALID)
+    try:
         for text in sets:
             key, value = parse_override(text)
             overrides[key] = value
@@ -79,7 +90,7 @@ def train(algorithm: str, scenario: str, seed: int, out: Path, steps: int | None
                            ("runtime.threads", threads)):
             if value is not None:
                 overrides[key] = value
-        config = resolve_config(algorithm, scenario, seed, overrides)
+        config = resolve(algorithm, scenario, seed, family, overrides)
     except ConfigError as exc:
         fail(str(exc), EXIT_USAGE)
     if print_config:

@@ -36,10 +36,12 @@ def require_torch() -> Any:
 
 def scenario_family(scenario: str) -> str | None:
     """The family of a scenario name or file (T-CURRICULUM's seed offset); ConfigError if unknown."""
-    from agspec.catalogue import CatalogueError, load_scenario_bundle
+    from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
 
     try:
         ir, _recipes, _profile = load_scenario_bundle(scenario)
+    except InvalidDocumentError as exc:
+        raise ConfigError(str(exc), invalid_input=True) from None
     except CatalogueError as exc:
         raise ConfigError(str(exc)) from None
     return ir.get("family")

@@ -124,7 +124,14 @@ ALGORITHM_TABLE: dict[str, dict[str, Any]] = {
 
 
 class ConfigError(ValueError):
-    """A bad algorithm, scenario, override or value (the message names the key)."""
+    """A bad algorithm, scenario, override or value (the message names the key).
+
+    ``invalid_input`` marks a file whose content is invalid (F-EXIT-CODES: exit 1), as opposed to a
+    bad option or a file that cannot be reached (exit 2)."""
+
+    def __init__(self, message: str, invalid_input: bool = False):
+        super().__init__(message)
+        self.invalid_input = invalid_input
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
