@@ -119,13 +119,20 @@ class Run:
         return data
 
     def checkpoint(self) -> None:
+        """T-RESUME: the QMIX replay goes to a file named by the step count first, then the checkpoint that
+        names it replaces the old one, then older replays go: a cut at any point leaves a matching pair."""
         pos = self.position
         pos["checkpoint_steps"] = pos["steps"]
+        replay = None
         if self.config["algorithm"] == "qmix":
-            self.learner.replay.save(self.out / rundir.REPLAY)
+            replay = rundir.replay_name(pos["steps"])
+            self.learner.replay.save(self.out / replay)
         save_checkpoint(self.out / rundir.CHECKPOINT, {
             "config_sha256": self.digest, "position": dict(pos), "learner": self.learner.state_dict(),
-            "record_bytes": self.record.size(), "elapsed_s": self.elapsed()})
+            "record_bytes": self.record.size(), "elapsed_s": self.elapsed(), "replay": replay})
+        for old in self.out.glob(rundir.REPLAY_GLOB):
+            if old.name != replay:
+                old.unlink()
 
     def restore(self) -> None:
         data = load_checkpoint(self.out / rundir.CHECKPOINT)
@@ -135,7 +142,7 @@ class Run:
         if self.config["algorithm"] == "qmix":
             from agspec.train.qmix import Replay
 
-            self.learner.replay = Replay.load(self.out / rundir.REPLAY)
+            self.learner.replay = Replay.load(self.out / data["replay"])
         self.position = dict(data["position"])
         self.position["resumed"] += 1
         self.record.truncate(int(data["record_bytes"]))

@@ -4,7 +4,7 @@
     SUMMARY      the run summary (schemas/training-run.schema.json), rewritten as the run goes
     RECORD       the training record (schemas/training-record.schema.json), appended as it goes
     CHECKPOINT   the last resumable state (networks, optimizers, random streams, counters)
-    REPLAY       QMIX only: the replay buffer at that checkpoint
+    replay-N.npz QMIX only: the replay buffer at the checkpoint taken after N steps
     POLICY       the final policy: the network the evaluation runs (its SHA-256 is its identity)
 
 No torch here: a campaign inspects run directories without the extra.
@@ -23,8 +23,14 @@ from typing import Any, Iterator, Mapping
 from agspec.formats.limits import InputError, load_json
 
 RUN_SCHEMA = "agspec-training-run/1"
-CONFIG, SUMMARY, RECORD, CHECKPOINT, REPLAY, POLICY, LOCK = (
-    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "replay.npz", "policy.pt", ".lock")
+CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (
+    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "policy.pt", ".lock")
+REPLAY_GLOB = "replay-*.npz"
+
+
+def replay_name(steps: int) -> str:
+    """The QMIX replay saved with the checkpoint taken after ``steps`` environment steps."""
+    return f"replay-{steps:012d}.npz"
 
 
 class RunDirError(ValueError):
