@@ -2,7 +2,8 @@
 its figures) trained on flow-easy and one coalition scenario for a small budget, several seeds, then
 delivered on the validation instances 200-204 against Random masked and Greedy.
 
-Usage:  python benchmarks/learn_check.py [--budget 5000] [--qmix-budget 1000] [--seeds 0,1,2] [--paper]
+Usage:  python benchmarks/learn_check.py [--budget 5000 | --budget flow-easy=5000,coalition-easy=20000]
+                                         [--qmix-budget 1000] [--seeds 0,1,2] [--paper]
                                          [--scenarios flow-easy,coalition-easy] [--algorithms ippo,mappo,qmix]
                                          [-j 2] [--device cpu] [--envs 1] [--set KEY=VALUE …]
                                          [--deadline-s 840] [--out DIR] [--json]
@@ -86,6 +87,14 @@ def run_one(out: Path, algorithm: str, scenario: str, seed: int, budget: int, de
     return result
 
 
+def budget_of(text: str, scenario: str) -> int:
+    """--budget N, or S=N,... per scenario (a scenario not named takes the first number)."""
+    if "=" not in text:
+        return int(text)
+    pairs = dict(item.split("=", 1) for item in text.split(","))
+    return int(pairs.get(scenario, next(iter(pairs.values()))))
+
+
 def references(scenarios: list[str], indices: list[int]) -> dict[tuple[str, str], dict[str, float]]:
     from agspec.catalogue import load_instance
     from agspec.evaluate import mean_ci, run_episode
@@ -101,7 +110,8 @@ def references(scenarios: list[str], indices: list[int]) -> dict[tuple[str, str]
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--budget", type=int, default=5_000)
+    ap.add_argument("--budget", default="5000",
+                    help="environment steps per run: N, or per scenario, e.g. flow-easy=5000,coalition-easy=20000")
     ap.add_argument("--qmix-budget", type=int, default=1_000, help="QMIX's budget (its TD updates are slow on a CPU)")
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--scenarios", default="flow-easy,coalition-easy")
@@ -124,7 +134,7 @@ def main() -> None:
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
         futures = [pool.submit(run_one, root / f"{a}-{s}-s{k}", a, s, k,
-                               args.qmix_budget or args.budget if a == "qmix" else args.budget,
+                               args.qmix_budget if a == "qmix" else budget_of(args.budget, s),
                                args.device, args.envs, [*(() if args.paper else FAST), *args.sets], deadline)
                    for a, s, k in jobs]
         results = [f.result() for f in futures]
@@ -146,7 +156,7 @@ def main() -> None:
                              "random": rnd["mean"], "greedy": refs[(scenario, "greedy")]["mean"],
                              "train_delivered_per_seed": [r["train_delivered"] for r in mine],
                              "steps_per_seed": [r["steps"] for r in mine], "learns": learns})
-    report = {"machine": machine(), "budget": args.budget, "qmix_budget": args.qmix_budget or args.budget,
+    report = {"machine": machine(), "budget": args.budget, "qmix_budget": args.qmix_budget,
               "settings": "paper" if args.paper else list(FAST),
               "device": args.device, "envs": args.envs, "sets": args.sets, "wall_s": round(time.perf_counter() - t0, 1),
               "out": str(root), "verdicts": verdicts, "runs": results,
