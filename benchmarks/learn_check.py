@@ -2,7 +2,7 @@
 its figures) trained on flow-easy and one coalition scenario for a small budget, several seeds, then
 delivered on the validation instances 200-204 against Random masked and Greedy.
 
-Usage:  python benchmarks/learn_check.py [--budget 5000 | --budget flow-easy=5000,coalition-easy=20000]
+Usage:  python benchmarks/learn_check.py [--budget 8000 | --budget flow-easy=8000,coalition-easy=20000]
                                          [--qmix-budget 1000] [--seeds 0,1,2] [--paper]
                                          [--scenarios flow-easy,coalition-easy] [--algorithms ippo,mappo,qmix]
                                          [-j 2] [--device cpu] [--envs 1] [--set KEY=VALUE …]
@@ -39,7 +39,8 @@ from typing import Any
 
 from _common import machine
 
-PPO_DEFAULTS = ("validation.every_block=false", "checkpoint.every_steps=null", "validation.actions=[greedy, sample]")
+PPO_DEFAULTS = ("validation.initial=false", "validation.every_block=false", "checkpoint.every_steps=null",
+                "validation.actions=[greedy, sample]")
 # --fast (the default): settings that learn within minutes on a CPU, against the table's (--paper):
 # shorter updates with bigger steps; everything else is tab:marlconfig
 FAST = ("ppo.steps_per_update=200", "ppo.minibatch=1000", "warmup.critic_steps=400", "lr.actor=0.001",
@@ -110,7 +111,7 @@ def references(scenarios: list[str], indices: list[int]) -> dict[tuple[str, str]
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--budget", default="5000",
+    ap.add_argument("--budget", default="8000",
                     help="environment steps per run: N, or per scenario, e.g. flow-easy=5000,coalition-easy=20000")
     ap.add_argument("--qmix-budget", type=int, default=1_000, help="QMIX's budget (its TD updates are slow on a CPU)")
     ap.add_argument("--seeds", default="0,1,2")

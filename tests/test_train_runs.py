@@ -150,6 +150,11 @@ def test_validation_rows_and_the_policy_factory(tmp_path):  # T-VALIDATION, T-EV
     phases = [(r["phase"], r["action"]) for r in rows if r["kind"] == "validation"]
     assert phases == [(p, a) for p in ("initial", "block-0", "block-1") for a in ("greedy", "sample")]
     assert summary["validation"]["phase"] == "block-1" and summary["validation"]["action"] == "greedy"
+    quiet = tiny("ippo", **{"budget.env_steps": 16, "curriculum.realizations": 2, "curriculum.indices": [0, 1],
+                            "validation.indices": [200], "validation.initial": False, "validation.every_block": False})
+    train(quiet, tmp_path / "quiet")  # RES-VALIDATION-SCHEDULE: the last block is always validated
+    assert [(r["phase"], r["action"]) for r in check_schemas(tmp_path / "quiet") if r["kind"] == "validation"] == [
+        ("block-1", "greedy")]
     env = parallel_env(SCENARIO, index=200)
     obs, infos = env.reset(seed=0)
     policy = load_policy(tmp_path / "run")(env)

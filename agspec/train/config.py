@@ -48,7 +48,7 @@ _COMMON: dict[str, Any] = {
     # T-REWARD: coalition_milestone_v1 (A-REWARD-MILESTONE); support credit per method below
     "reward": {"name": "coalition_milestone_v1", "support_credit": None},
     # T-VALIDATION: online monitoring on the validation split (RES-VALIDATION-SCHEDULE)
-    "validation": {"indices": [200, 201, 202, 203, 204], "every_block": True, "actions": ["greedy"]},
+    "validation": {"indices": [200, 201, 202, 203, 204], "initial": True, "every_block": True, "actions": ["greedy"]},
     # T-RECORD: one training-record row per 16,000 environment steps (the original's interval)
     "record": {"every_steps": 16_000},
     # T-RUN-DIR: resumable checkpoints (block boundaries always; also every N steps where cheap)

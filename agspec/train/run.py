@@ -225,7 +225,10 @@ class Run:
             self.record.write({"kind": "header", "schema": RECORD_SCHEMA, "algorithm": c["algorithm"],
                                "scenario": c["scenario"], "seed": c["seed"], "config_sha256": self.digest,
                                "budget": c["budget"]["env_steps"], "agspec_version": agspec.__version__})
-            self.validate("initial")
+            if c["validation"]["initial"]:
+                self.validate("initial")
+            else:
+                save_policy(self.out / rundir.POLICY, c, self.digest, self.learner.policy_net(), 0)
             self.checkpoint()
         self.write_summary("running")
         pos = self.position
