@@ -113,8 +113,8 @@ def coercion() -> tuple[int, list[str]]:
         tried += 1
         with tempfile.TemporaryDirectory() as tmp:
             result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", scripted("--coercion", how),
-                                              "--scenario", "flow-easy", "--small", "0", "--ticks", "30", "--seed",
-                                              str(seed), "--shrink-budget", "0", "--format", "json", "--out",
+                                              "--scenario", "flow-easy", "--small", "0", "--horizon", "30", "--seed",
+                                              str(seed), "--shrink-budget", "0", "--format", "json", "-o",
                                               str(Path(tmp) / "out")])
         if result.exit_code != 1:
             wrong.append(f"{how} seed {seed}: exit {result.exit_code} (no divergence)")

@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
         for m in mutants:
             impl = shlex.join([sys.executable, str(ROOT / "tests" / "mutants" / "sim.py"), "--mutant", m.name])
             cmd = [*agspec_cmd(), "conform", "--impl", impl, "--format", "json", "-x", "--repro-dir", tmp,
-                   "--golden-cache", f"{tmp}/golden", "--impl-timeout", "15"]
+                   "--golden-cache", f"{tmp}/golden", "--timeout", "15"]
             cmd += ["--suite", args.suite] if args.suite else []
             cmd += ["-k", args.select] if args.select else []
             seconds, proc = timed_run(cmd, cwd=ROOT)

@@ -1,7 +1,7 @@
 """Recipe: train with Stable-Baselines3 + sb3-contrib MaskablePPO through SuperSuit, evaluate with agspec.
 
     pip install torch==2.13.0 stable-baselines3 sb3-contrib supersuit   # not agspec dependencies
-    python benchmarks/recipe_sb3.py --scenario flow-easy --seed 0 --env-steps 2000 --out runs/sb3-flow-easy
+    python benchmarks/recipe_sb3.py --scenario flow-easy --seed 0 --env-steps 2000 -o runs/sb3-flow-easy
 
 The glue is the part of docs/training.md ("Training with other libraries") this script runs:
 
@@ -102,7 +102,7 @@ def evaluate(args: argparse.Namespace) -> dict:
            f"{HERE / 'recipe_sb3_policy.py'}:make_policy", "--name", "sb3-maskable-ppo", "--controller", "random",
            "--scenario", args.scenario, "--split", "validation", "--indices", args.eval_indices, "--repeat", "0",
            "--metric", "delivered",
-           "-j", str(args.jobs), "--out", str(args.out / "validation.json")]
+           "-j", str(args.jobs), "-o", str(args.out / "validation.json")]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     print(proc.stdout, end="")
     if proc.returncode:
@@ -126,7 +126,7 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
     ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
     ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
-    ap.add_argument("--out", type=Path, default=Path("runs/sb3"))
+    ap.add_argument("-o", "--output", dest="out", type=Path, default=Path("runs/sb3"))
     args = ap.parse_args()
     result = {**train(args), **evaluate(args)}
     print(json.dumps(result))

@@ -1,7 +1,7 @@
 """Recipe: train IPPO with TorchRL (one shared agent group), evaluate with agspec.
 
     pip install torch==2.13.0 torchrl tensordict   # not agspec dependencies
-    python benchmarks/recipe_torchrl.py --scenario flow-easy --seed 0 --env-steps 2000 --out runs/torchrl-flow-easy
+    python benchmarks/recipe_torchrl.py --scenario flow-easy --seed 0 --env-steps 2000 -o runs/torchrl-flow-easy
 
 The glue is the part of docs/training.md ("Training with other libraries") this script runs:
 
@@ -109,7 +109,7 @@ def evaluate(args: argparse.Namespace) -> dict:
     cmd = [sys.executable, "-m", "agspec.cli.main", "evaluate", "--policy",
            f"{HERE / 'recipe_torchrl_policy.py'}:make_policy", "--name", "torchrl-ippo", "--controller", "random",
            "--scenario", args.scenario, "--split", "validation", "--indices", args.eval_indices, "--repeat", "0",
-           "--metric", "delivered", "-j", str(args.jobs), "--out", str(args.out / "validation.json")]
+           "--metric", "delivered", "-j", str(args.jobs), "-o", str(args.out / "validation.json")]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     print(proc.stdout, end="")
     if proc.returncode:
@@ -132,7 +132,7 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
     ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
     ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
-    ap.add_argument("--out", type=Path, default=Path("runs/torchrl"))
+    ap.add_argument("-o", "--output", dest="out", type=Path, default=Path("runs/torchrl"))
     args = ap.parse_args()
     result = {**train(args), **evaluate(args)}
     print(json.dumps(result))

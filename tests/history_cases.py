@@ -50,7 +50,7 @@ def conform(spec: str, cwd: Path, *extra: str) -> tuple[int, dict]:
 def judge(flags: frozenset[str], tmp: Path) -> list[str]:
     """Run the simulator of ``flags``; the properties it violates (empty: none)."""
     spec = sim_spec(flags, tmp / "coin")
-    code, out = conform(spec, tmp, "--no-suite", "--episodes", "2", "--ticks", "3",
+    code, out = conform(spec, tmp, "--no-suite", "--episodes", "2", "--horizon", "3",
                         "-k", "e-flow-easy-greedy or e-flow-easy-random-1 or e-coalition-easy-greedy")
     footer, wrong = out["footer"], []
     deterministic = "coin" not in flags

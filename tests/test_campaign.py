@@ -158,7 +158,7 @@ def test_evaluate_output_and_bundle_are_the_same_on_every_executor(tmp_path):  #
     outputs, bundles = [], []
     for n, extra in enumerate(CAMPAIGN_RUNS):
         bundle = tmp_path / f"results-{n}.json"
-        result = _agspec(*EVALUATE, "--format", "json", "--out", str(bundle), *extra)
+        result = _agspec(*EVALUATE, "--format", "json", "-o", str(bundle), *extra)
         assert result.returncode == 0, result.stderr
         outputs.append(_without_timing(json.loads(result.stdout)))
         bundles.append(_without_timing(json.loads(bundle.read_text())))
@@ -175,7 +175,7 @@ def test_conform_report_and_summary_are_the_same_on_every_executor(tmp_path):  #
     for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
         report = tmp_path / f"conform-{n}.jsonl"
         result = _agspec("conform", "--impl", "agspec serve", "-k", "handoff or support or INV-", "--episodes", "1",
-                         "--ticks", "15", "--format", "json", "--report", str(report), *extra)
+                         "--horizon", "15", "--format", "json", "-o", str(report), *extra)
         assert result.returncode == 0, result.stderr
         outputs.append(_without_timing(json.loads(result.stdout)))
         reports.append([_without_timing(json.loads(line)) for line in report.read_text().splitlines()])
@@ -222,7 +222,7 @@ def test_check_over_a_directory_is_identical_on_every_executor(tmp_path):  # CAM
     outputs, reports = [], []
     for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
         report = tmp_path / f"report-{n}.jsonl"
-        result = _agspec("check", str(traces), "--format", "json", "--report", str(report), *extra)
+        result = _agspec("check", str(traces), "--format", "json", "-o", str(report), *extra)
         assert result.returncode == 1, result.stderr  # the truncated trace fails
         outputs.append(result.stdout)
         reports.append(report.read_bytes())
@@ -257,8 +257,8 @@ DIFF_SUBJECTS = [str(MUTANTS / "instances" / f"{name}.json") for name in ("pair-
 
 
 def _diff(*extra: str, cwd: Path, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
-    args = ["agspec", "diff", "--ticks", "20", "--controller", "greedy", "--controller", "random",
-            "--shrink-budget", "30", "--out", "out", "--format", "json", *extra]
+    args = ["agspec", "diff", "--horizon", "20", "--controller", "greedy", "--controller", "random",
+            "--shrink-budget", "30", "-o", "out", "--format", "json", *extra]
     for subject in DIFF_SUBJECTS:
         args += ["--scenario", subject]
     return subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=600, env=env)
@@ -340,8 +340,8 @@ def test_diff_interrupt_stops_every_simulator_the_workers_started(tmp_path):  # 
             time.sleep(600)
     """))
     proc = subprocess.Popen(["agspec", "diff", "--impl", "reference", "--impl", f"{sys.executable} {wrapper}",
-                             "--scenario", "flow-easy", "--episodes", "40", "--small", "0", "--ticks", "200",
-                             "-j", "2", "--out", str(tmp_path / "out")],
+                             "--scenario", "flow-easy", "--episodes", "40", "--small", "0", "--horizon", "200",
+                             "-j", "2", "-o", str(tmp_path / "out")],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         assert proc.stderr.readline()  # the banner: the run has started

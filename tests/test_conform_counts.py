@@ -24,7 +24,7 @@ from agspec.formats.pointer import first_difference
 
 SERVE = shutil.which("agspec")
 
-# scenario -> (ticks, replies compared, invariant checks) for `--episodes 2 --ticks 20` (greedy + 1 random)
+# scenario -> (ticks, replies compared, invariant checks) for `--episodes 2 --horizon 20` (greedy + 1 random)
 MEASURED = {
     "coalition-medium": (40, 42, 4448),
     "concurrency-hard": (40, 42, 7350),
@@ -40,7 +40,7 @@ def _in_tmp(tmp_path, monkeypatch):
     SERVE is None, reason="the agspec console script is not installed"))])
 @pytest.mark.parametrize("scenario", sorted(MEASURED))
 def test_same_run_same_counts(scenario, impl):
-    result = CliRunner().invoke(cli, ["conform", "--impl", impl, "--no-suite", "--episodes", "2", "--ticks", "20",
+    result = CliRunner().invoke(cli, ["conform", "--impl", impl, "--no-suite", "--episodes", "2", "--horizon", "20",
                                       "-k", f"e-{scenario}-*", "--format", "json"], catch_exceptions=False)
     assert result.exit_code == 0, result.output[-2000:]
     footer = json.loads(result.output)["footer"]

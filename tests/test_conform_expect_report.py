@@ -18,7 +18,7 @@ from agspec.cli.main import cli
 from agspec.formats.report import read_report
 
 FAKE = Path(__file__).resolve().parent / "fakes" / "fake_sim.py"
-WORKLOAD = ("--no-suite", "--episodes", "1", "--ticks", "5", "-k", "flow-easy or flow-medium")
+WORKLOAD = ("--no-suite", "--episodes", "1", "--horizon", "5", "-k", "flow-easy or flow-medium")
 
 
 @pytest.fixture(autouse=True)
@@ -71,8 +71,8 @@ def test_stale_entry_fails_the_run(tmp_path: Path):
     expect = write(tmp_path / "e.json", {"c-000000000000": {"outcome": "fail", "reason": "renamed long ago"},
                                          "e-flow-easy-random-7": {"outcome": "fail"}})  # an episode id: not stale
     report = tmp_path / "r.jsonl"
-    code, out = conform("--impl", "reference", "--expect", str(expect), "--report", str(report),
-                        "--episodes", "1", "--ticks", "3", "-k", "flow-easy")
+    code, out = conform("--impl", "reference", "--expect", str(expect), "-o", str(report),
+                        "--episodes", "1", "--horizon", "3", "-k", "flow-easy")
     assert out["stale"] == ["c-000000000000"]
     assert code == 1
     records, problems = read_report(report)
@@ -93,7 +93,7 @@ def test_malformed_expectations_file_is_invalid_input_and_a_missing_one_a_usage_
 
 def test_report_is_complete_when_the_simulator_crashes(tmp_path: Path):
     report = tmp_path / "r.jsonl"
-    code, _ = conform("--impl", f"{sys.executable} {FAKE} crash --only flow-easy", "--report", str(report), *WORKLOAD)
+    code, _ = conform("--impl", f"{sys.executable} {FAKE} crash --only flow-easy", "-o", str(report), *WORKLOAD)
     assert code == 3
     records, problems = read_report(report)
     assert problems == []
@@ -105,7 +105,7 @@ def test_report_survives_a_crash_of_the_harness(tmp_path: Path):
     """Kill the harness (SIGKILL) in the middle of a run: every line written so far is a valid record."""
     report = tmp_path / "r.jsonl"
     cmd = [sys.executable, "-m", "agspec.cli.main", "conform", "--impl", "reference", "--no-suite",
-           "--episodes", "3", "--ticks", "40", "--report", str(report)]
+           "--episodes", "3", "--horizon", "40", "-o", str(report)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     try:
         deadline = time.monotonic() + 60

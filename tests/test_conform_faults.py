@@ -15,7 +15,7 @@ from agspec.cli.main import cli
 
 FAKE = Path(__file__).resolve().parent / "fakes" / "fake_sim.py"
 # two short greedy episodes; the fault hits only the first (flow-easy), the second must still pass
-WORKLOAD = ("--no-suite", "--episodes", "1", "--ticks", "5", "-k", "flow-easy or flow-medium")
+WORKLOAD = ("--no-suite", "--episodes", "1", "--horizon", "5", "-k", "flow-easy or flow-medium")
 
 
 @pytest.fixture(autouse=True)
@@ -62,7 +62,7 @@ def test_crash_reports_stderr():
 
 
 def test_hang_times_out_and_the_next_item_runs():
-    exit_code, out = conform("--impl", fake("hang"), "--impl-timeout", "1", *WORKLOAD)
+    exit_code, out = conform("--impl", fake("hang"), "--timeout", "1", *WORKLOAD)
     results = by_id(out)
     assert results["e-flow-easy-greedy"]["outcome"] == "error"
     assert results["e-flow-easy-greedy"]["failure"]["type"] == "timeout"

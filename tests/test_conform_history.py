@@ -40,7 +40,7 @@ def test_the_issue_instances(flags, tmp_path):
     refuses a second load is an ordinary failure; a coin per process is nondeterministic."""
     assert judge(flags, tmp_path) == []
     code, out = conform(sim_spec(flags, tmp_path / "coin2"), tmp_path, "--no-suite", "--episodes", "2",
-                        "--ticks", "3", "-k", "e-flow-easy-greedy or e-flow-easy-random-1")
+                        "--horizon", "3", "-k", "e-flow-easy-greedy or e-flow-easy-random-1")
     footer = out["footer"]
     if flags == {"leak_load"}:
         assert code == 1 and footer["history_dependent"]["id"] == "e-flow-easy-random-1"

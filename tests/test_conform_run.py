@@ -35,7 +35,7 @@ def json_run(*args: str):
 
 def test_reference_passes_suite_and_episodes(tmp_path: Path):
     report = tmp_path / "report.jsonl"
-    code, out = json_run("--impl", "reference", "--episodes", "1", "--ticks", "15", "--report", str(report))
+    code, out = json_run("--impl", "reference", "--episodes", "1", "--horizon", "15", "-o", str(report))
     assert code == 0, [r for r in out["results"] if r["outcome"] != "pass"][:3]
     footer = out["footer"]
     assert footer["conformant"] and footer["counts"]["pass"] == footer["total"]
@@ -51,7 +51,7 @@ def test_reference_passes_suite_and_episodes(tmp_path: Path):
 
 @pytest.mark.skipif(SERVE is None, reason="the agspec console script is not installed")
 def test_agspec_serve_passes_over_the_wire():
-    code, out = json_run("--impl", "agspec serve", "--episodes", "1", "--ticks", "8",
+    code, out = json_run("--impl", "agspec serve", "--episodes", "1", "--horizon", "8",
                          "-k", "episode or handoff or support or coalition")
     assert code == 0, [r for r in out["results"] if r["outcome"] != "pass"][:3]
     assert out["header"]["implementation"]["implementation"]["name"] == "agspec-reference"
@@ -62,14 +62,14 @@ def test_agspec_serve_passes_over_the_wire():
 @pytest.mark.skipif(SERVE is None, reason="the agspec console script is not installed")
 def test_agspec_serve_speaks_the_protocol_exactly():
     """--validate-protocol: every request and reply of a session checked against schemas/protocol/."""
-    code, out = json_run("--impl", "agspec serve", "--no-suite", "--episodes", "2", "--ticks", "3",
+    code, out = json_run("--impl", "agspec serve", "--no-suite", "--episodes", "2", "--horizon", "3",
                          "-k", "flow-easy", "--validate-protocol")
     assert code == 0 and out["footer"]["counts"]["pass"] == 2
 
 
 def test_python_adapter_passes():
     spec = f"python:{FAKES / 'tiny_adapter.py'}:make"
-    code, out = json_run("--impl", spec, "--episodes", "1", "--ticks", "10", "-k", "episode or release or pick")
+    code, out = json_run("--impl", spec, "--episodes", "1", "--horizon", "10", "-k", "episode or release or pick")
     assert code == 0, [r for r in out["results"] if r["outcome"] != "pass"][:3]
     assert out["header"]["implementation"]["implementation"]["name"] == "tiny"
     # the tiny adapter declares no observations: their assertions are skipped, never failed
@@ -88,7 +88,7 @@ def test_python_adapter_runs_observation_cases_at_its_level():
 
 
 def test_parallel_equals_sequential():
-    args = ("--impl", "reference", "--no-suite", "--episodes", "1", "--ticks", "5", "-k", "flow or coalition-easy")
+    args = ("--impl", "reference", "--no-suite", "--episodes", "1", "--horizon", "5", "-k", "flow or coalition-easy")
     code1, one = json_run(*args, "-j", "1")
     code2, two = json_run(*args, "-j", "2")
     assert code1 == code2 == 0
@@ -97,7 +97,7 @@ def test_parallel_equals_sequential():
 
 
 def test_keyword_selection_and_empty_selection():
-    code, out = json_run("--impl", "reference", "--no-suite", "--episodes", "2", "--ticks", "3",
+    code, out = json_run("--impl", "reference", "--no-suite", "--episodes", "2", "--horizon", "3",
                          "-k", "flow-easy and not random")
     assert code == 0 and [r["id"] for r in out["results"]] == ["e-flow-easy-greedy"]
     result = conform("--impl", "reference", "--no-suite", "-k", "no-such-thing")
@@ -111,14 +111,14 @@ def test_usage_errors_exit_2():
     assert conform("--impl", "python:no_such_module_xyz:make").exit_code == 2
     assert conform("--impl", "reference", "--episodes", "-1").exit_code == 2
     assert conform("--replay", "/nonexistent/file.json").exit_code == 2
-    result = conform("--impl", "/nonexistent/simulator --flag", "--no-suite", "--episodes", "1", "--ticks", "2",
+    result = conform("--impl", "/nonexistent/simulator --flag", "--no-suite", "--episodes", "1", "--horizon", "2",
                      "-k", "flow-easy")
     assert result.exit_code == 3 and "cannot start" in result.output  # spawn failure: a harness error
 
 
 def test_coverage_json():
-    # a short run: the variant space is measured over the items --episodes and --ticks select
-    result = conform("--coverage", "--format", "json", "--episodes", "1", "--ticks", "5")
+    # a short run: the variant space is measured over the items --episodes and --horizon select
+    result = conform("--coverage", "--format", "json", "--episodes", "1", "--horizon", "5")
     cov = json.loads(result.output)
     # values and variants: F-CONFORM-COVERAGE
     assert set(cov) == {"rules", "invariants", "values", "variants", "unreachable", "uncovered"}

@@ -75,7 +75,7 @@ def test_a_simulator_that_kills_its_worker_is_blamed(tmp_path, monkeypatch):
     """-j 2: the simulator kills its parent, the harness worker; the item is the simulator's crash."""
     monkeypatch.chdir(tmp_path)
     spec = shlex.join([sys.executable, str(SIM), "--kill-parent"])
-    result = CliRunner().invoke(cli, ["conform", "--impl", spec, "--no-suite", "--episodes", "1", "--ticks", "3",
+    result = CliRunner().invoke(cli, ["conform", "--impl", spec, "--no-suite", "--episodes", "1", "--horizon", "3",
                                       "-k", "e-flow-easy-greedy or e-coalition-easy-greedy", "-j", "2",
                                       "--retries", "0", "--format", "json", "--golden-cache", "off"])
     assert result.exit_code == 3, result.output

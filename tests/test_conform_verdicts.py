@@ -92,7 +92,7 @@ def test_events_only_state_lie_is_not_called_conformant():
 
 
 def test_require_through_the_cli():
-    args = ["conform", "--impl", honest("events-only"), "--no-suite", "--episodes", "1", "--ticks", "5",
+    args = ["conform", "--impl", honest("events-only"), "--no-suite", "--episodes", "1", "--horizon", "5",
             "-k", "e-flow-easy-greedy", "--format", "json"]
     ok = CliRunner().invoke(cli, args + ["--require", "events"])
     assert ok.exit_code == 0, ok.output
@@ -249,8 +249,8 @@ def test_killing_conform_tears_down_the_simulator_group(tmp_path, sig, code):
     pids = tmp_path / "pids"
     impl = shlex.join([sys.executable, str(wrapper), str(pids), str(SIM)])
     agspec = Path(sys.executable).parent / "agspec"
-    proc = subprocess.Popen([str(agspec), "conform", "--impl", impl, "--no-suite", "--episodes", "1", "--ticks", "6",
-                             "-k", "e-flow-easy-greedy", "--impl-timeout", "120"], cwd=tmp_path,
+    proc = subprocess.Popen([str(agspec), "conform", "--impl", impl, "--no-suite", "--episodes", "1", "--horizon", "6",
+                             "-k", "e-flow-easy-greedy", "--timeout", "120"], cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 60
@@ -284,7 +284,7 @@ def test_serve_exits_on_end_of_input():
 def test_every_reproducer_is_printed_and_in_the_report(tmp_path, monkeypatch):
     where = tmp_path / "repros"
     monkeypatch.setenv("AGSPEC_REPRO_DIR", str(where))
-    args = ["conform", "--impl", mutant("obs-leak"), "--no-suite", "--episodes", "1", "--ticks", "3",
+    args = ["conform", "--impl", mutant("obs-leak"), "--no-suite", "--episodes", "1", "--horizon", "3",
             "-k", "e-flow-easy-greedy"]
     result = CliRunner().invoke(cli, args + ["--format", "json"])
     assert result.exit_code == 1
@@ -307,8 +307,8 @@ def coin(tmp_path, monkeypatch):
 def test_diff_reports_a_nondeterministic_implementation(coin):
     inst = HERE / "mutants" / "instances" / "pair-1x2-flat.json"
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", mutant("nondeterministic"),
-                                      "--scenario", str(inst), "--ticks", "8", "--small", "0",
-                                      "--controller", "greedy", "--format", "json", "--out", "out"])
+                                      "--scenario", str(inst), "--horizon", "8", "--small", "0",
+                                      "--controller", "greedy", "--format", "json", "-o", "out"])
     assert result.exit_code == runner.EXIT_NONDETERMINISTIC, result.output
     (finding,) = json.loads(result.stdout)["findings"]
     evidence = finding["nondeterministic"]["original"]
@@ -317,7 +317,7 @@ def test_diff_reports_a_nondeterministic_implementation(coin):
 
 def test_conform_reports_a_nondeterministic_implementation(coin):
     result = CliRunner().invoke(cli, ["conform", "--impl", mutant("nondeterministic"), "--no-suite", "--episodes",
-                                      "1", "--ticks", "8", "-k", "e-flow-easy-greedy"])
+                                      "1", "--horizon", "8", "-k", "e-flow-easy-greedy"])
     assert result.exit_code == runner.EXIT_NONDETERMINISTIC, result.output
     assert "NONDETERMINISTIC IMPLEMENTATION" in result.stdout
 
@@ -427,8 +427,8 @@ def test_diff_states_the_level_it_compared():
     """`agspec diff` against an events-only simulator says "no divergence" only at level events."""
     inst = HERE / "mutants" / "instances" / "pair-1x2-flat.json"
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", mutant("events-only-state-lie"),
-                                      "--scenario", str(inst), "--ticks", "8", "--small", "0",
-                                      "--controller", "greedy", "--format", "json", "--out", "out"])
+                                      "--scenario", str(inst), "--horizon", "8", "--small", "0",
+                                      "--controller", "greedy", "--format", "json", "-o", "out"])
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["level"] == "events"
 

@@ -226,7 +226,7 @@ def test_shrinking_reduces_the_instance_step_by_step(pair_factory):
 
 def test_cli_no_divergence(tmp_path):
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", sim(), "--scenario",
-                                      str(INSTANCES / "pair-1x2-flat.json"), "--ticks", "15", "--out", str(tmp_path)])
+                                      str(INSTANCES / "pair-1x2-flat.json"), "--horizon", "15", "-o", str(tmp_path)])
     assert result.exit_code == 0, result.output
     assert "no divergence" in result.output
     assert not list(tmp_path.iterdir())
@@ -234,7 +234,7 @@ def test_cli_no_divergence(tmp_path):
 
 def test_cli_divergence_is_shrunk_printed_and_saved(tmp_path):
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", sim("deliver-early"), "--scenario",
-                                      str(INSTANCES / "solo-1x2-flat.json"), "--ticks", "20", "--out",
+                                      str(INSTANCES / "solo-1x2-flat.json"), "--horizon", "20", "-o",
                                       str(tmp_path), "--controller", "greedy"])
     assert result.exit_code == 1, result.output
     out = result.output
@@ -265,7 +265,7 @@ def test_cli_divergence_is_shrunk_printed_and_saved(tmp_path):
 
 def test_cli_json_report_and_error_exit(tmp_path):
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", sim("garbage"), "--scenario",
-                                      "flow-easy", "--small", "0", "--ticks", "5", "--out", str(tmp_path),
+                                      "flow-easy", "--small", "0", "--horizon", "5", "-o", str(tmp_path),
                                       "--format", "json", "--shrink-budget", "5"])
     assert result.exit_code == 3, result.output
     report = json.loads(result.output)

@@ -71,7 +71,7 @@ def test_a_suite_with_a_broken_case_file_is_invalid_input(tmp_path):
 @pytest.mark.parametrize("command", [
     ["evaluate", "--scenario", "coalition-medium", "--split", "final-test", "--controller", "greedy",
      "--format", "json"],
-    ["conform", "--impl", "agspec serve", "--no-suite", "--episodes", "2", "--ticks", "400"],
+    ["conform", "--impl", "agspec serve", "--no-suite", "--episodes", "2", "--horizon", "400"],
 ])
 def test_an_interrupted_run_exits_130(command):
     # F-EXIT-CODES: Ctrl-C is "interrupted" (130), not click's "Aborted!" (1); the run is long enough

@@ -36,8 +36,8 @@ COERCIONS = ("silent", "silent-range", "silent-masked", "wrong-action")
 
 def _diff(spec: str, tmp: Path, *extra: str) -> tuple[int, dict]:
     result = CliRunner().invoke(cli, ["diff", "--impl", "reference", "--impl", spec, "--scenario", "flow-easy",
-                                      "--small", "0", "--ticks", "30", "--shrink-budget", "0", "--format", "json",
-                                      "--out", str(tmp / "out"), *extra])
+                                      "--small", "0", "--horizon", "30", "--shrink-budget", "0", "--format", "json",
+                                      "-o", str(tmp / "out"), *extra])
     return result.exit_code, json.loads(result.stdout)
 
 
@@ -122,7 +122,7 @@ def test_a_liar_wrong_late_in_the_horizon_fails_a_default_run(wrong_from, tmp_pa
 
 def test_a_run_cut_short_says_how_much_of_the_horizon_it_checked(tmp_path):
     spec = shlex.join([sys.executable, str(SIM), "--wrong-at", "100"])
-    code, out = _conform(spec, tmp_path, "--ticks", "60")
+    code, out = _conform(spec, tmp_path, "--horizon", "60")
     assert code == 0
     assert out["footer"]["horizon"] == {"flow-easy": {"episodes": 1, "ticks": 60, "horizon": 400}}
     assert "checked 60 of 400 horizon ticks" in out["footer"]["verdict"]

@@ -171,7 +171,7 @@ def test_line_digest_is_the_text_digest_of_the_reply_the_server_sent():
 
 def test_conform_cli_reports_golden_items(tmp_path):
     cmd = [sys.executable, "-m", "agspec.cli.main", "conform", "--impl", "reference", "--no-suite", "--episodes", "1",
-           "--ticks", "10", "-k", "e-flow-easy-*", "--format", "json", "--golden-cache", str(tmp_path)]
+           "--horizon", "10", "-k", "e-flow-easy-*", "--format", "json", "--golden-cache", str(tmp_path)]
     first = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
     second = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
     assert first["footer"]["golden_items"] == 0 and second["footer"]["golden_items"] == 1

@@ -32,7 +32,7 @@ sys.path.insert(0, str(HERE / "mutants"))
 import mutant_registry as registry  # noqa: E402  (tests/mutants/mutant_registry.py)
 
 SIM = HERE / "mutants" / "sim.py"
-TIMEOUT = 1.0  # --impl-timeout of the hang mutant: it costs one second
+TIMEOUT = 1.0  # --timeout of the hang mutant: it costs one second
 PATIENT = 15.0  # every other mutant: a loaded machine must not turn a slow reply into a timeout
 
 
@@ -172,8 +172,8 @@ def test_mutant_through_agspec_conform(name, tmp_path):
     from agspec.cli.main import cli
 
     m = registry.MUTANTS[name]
-    args = ["conform", "--impl", sim_spec(name), "--no-suite", "--episodes", "1", "--ticks", str(m.workload.ticks),
-            "-k", "e-flow-easy-greedy", "--impl-timeout", str(timeout_for(m)), "--format", "json", "--repro-dir",
+    args = ["conform", "--impl", sim_spec(name), "--no-suite", "--episodes", "1", "--horizon", str(m.workload.ticks),
+            "-k", "e-flow-easy-greedy", "--timeout", str(timeout_for(m)), "--format", "json", "--repro-dir",
             str(tmp_path)]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == want_exit(m), result.output

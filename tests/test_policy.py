@@ -202,7 +202,7 @@ def campaign(tmp_path_factory):
     (d / "mine.py").write_text(CONTRACT_POLICY)
     r = agspec("evaluate", "--policy", f"{d / 'mine.py'}:make_policy", "--name", "mine", "--policy-version", "7",
                "--controller", "greedy", "--controller", "random", "--scenario", SCENARIO, "--split", "catalogue",
-               "--indices", "0-2", "--out", str(d / "results.json"), "--format", "json", "-j", "2")
+               "--indices", "0-2", "-o", str(d / "results.json"), "--format", "json", "-j", "2")
     assert r.returncode == 0, r.stderr
     return d, json.loads(r.stdout), read_bundle(d / "results.json")
 
@@ -316,7 +316,7 @@ def test_report_markdown_latex_and_figures(campaign):
 def test_misbehaving_policy_costs_only_its_episodes(tmp_path):
     r = agspec("evaluate", "--policy", f"{FAKES}/policies.py:raises", "--name", "bad", "--controller", "greedy",
                "--scenario", SCENARIO, "--split", "catalogue", "--indices", "0", "--repeat", "0",
-               "--out", str(tmp_path / "r.json"))
+               "-o", str(tmp_path / "r.json"))
     assert r.returncode == 1
     assert f"{SCENARIO} #0, tick 3" in r.stderr and "policy bug" in r.stderr and "Traceback" not in r.stderr
     eps = read_bundle(tmp_path / "r.json")["episodes"]

@@ -22,7 +22,7 @@ def test_recipe_trains_saves_and_evaluates(tmp_path, recipe, needs):
     for module in ("torch", "pettingzoo", *needs):
         pytest.importorskip(module)
     r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / recipe), "--env-steps", "200", "--rollout", "100",
-                        "--max-cycles", "50", "--eval-indices", "200", "--out", str(tmp_path)],
+                        "--max-cycles", "50", "--eval-indices", "200", "-o", str(tmp_path)],
                        capture_output=True, text=True, timeout=900, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     result = json.loads(r.stdout.strip().splitlines()[-1])

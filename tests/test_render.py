@@ -178,7 +178,7 @@ def test_truncated_trace_still_renders_with_a_warning(tmp_path: Path):
 # ----------------------------------------------------------------------------------------- subprocess adapter
 def test_trace_recorded_from_a_subprocess_simulator(tmp_path: Path):
     spec = shlex.join([sys.executable, str(SIM)])
-    code, out = render("--impl", spec, "--scenario", "coalition-easy", "--ticks", "30", "--trace",
+    code, out = render("--impl", spec, "--scenario", "coalition-easy", "--horizon", "30", "--trace",
                        str(tmp_path / "sub.jsonl"), "-o", str(tmp_path / "sub.html"))
     assert code == 0, out
     sub = [json.loads(line) for line in (tmp_path / "sub.jsonl").read_text().splitlines()]
@@ -192,7 +192,7 @@ def test_trace_recorded_from_a_subprocess_simulator(tmp_path: Path):
 
 def test_a_crashing_simulator_exits_3_and_still_shows_its_ticks(tmp_path: Path):
     spec = shlex.join([sys.executable, str(SIM), "--mutant", "crash"])
-    code, out = render("--impl", spec, "--scenario", "flow-easy", "--ticks", "10", "--impl-timeout", "2",
+    code, out = render("--impl", spec, "--scenario", "flow-easy", "--horizon", "10", "--timeout", "2",
                        "-o", str(tmp_path / "c.html"))
     assert code == 3, out
     assert "crash" in out
@@ -206,7 +206,7 @@ def failing_report(tmp_path_factory) -> Path:
     where = tmp_path_factory.mktemp("report")
     spec = shlex.join([sys.executable, str(SIM), "--mutant", "dup-handoff"])
     proc = subprocess.run([sys.executable, "-m", "agspec.cli.main", "conform", "--impl", spec, "--no-suite", "-k",
-                           "e-coalition-medium-greedy", "--report", "r.jsonl", "--repro-dir", "repro"],
+                           "e-coalition-medium-greedy", "-o", "r.jsonl", "--repro-dir", "repro"],
                           cwd=where, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     return where / "r.jsonl"

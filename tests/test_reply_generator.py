@@ -80,8 +80,8 @@ def test_through_the_cli_a_simulator_process_never_gets_exit_4(tmp_path, name):
     target = NAMED[name][0]
     impl = f"{sys.executable} {LINE_SIM} --target {target} --klass named:{name}"
     report = tmp_path / "r.jsonl"
-    result = CliRunner().invoke(cli, ["conform", "--impl", impl, "--no-suite", "--episodes", "1", "--ticks", "3",
-                                      "-k", "flow-easy", "--report", str(report), "--format", "json",
+    result = CliRunner().invoke(cli, ["conform", "--impl", impl, "--no-suite", "--episodes", "1", "--horizon", "3",
+                                      "-k", "flow-easy", "-o", str(report), "--format", "json",
                                       "--repro-dir", str(tmp_path)])
     assert result.exit_code == 3, result.output[-2000:]
     records, problems = read_report(report)

@@ -104,8 +104,8 @@ def test_the_documents_of_a_failing_conform_run_validate(tmp_path):
     import sys
 
     out = CliRunner().invoke(cli, ["conform", "--impl", f"{sys.executable} {fake} mutate --only flow-easy",
-                                   "--no-suite", "--episodes", "1", "--ticks", "4", "-k", "flow-easy",
-                                   "--report", str(tmp_path / "r.jsonl"), "--repro-dir", str(tmp_path),
+                                   "--no-suite", "--episodes", "1", "--horizon", "4", "-k", "flow-easy",
+                                   "-o", str(tmp_path / "r.jsonl"), "--repro-dir", str(tmp_path),
                                    "--format", "json"])
     assert out.exit_code == 1, out.output[-2000:]
     assert schemas.validate("conform", json.loads(out.output)) == []

@@ -77,11 +77,11 @@ def test_local_and_ray_campaigns_write_the_same_bytes_and_resume(tmp_path):  # C
 def test_cli_campaign_from_a_plan_file(tmp_path):
     plan = tmp_path / "plan.json"
     plan.write_text(json.dumps({**PLAN, "algorithms": ["ippo"], "seeds": [0]}))
-    res = CliRunner().invoke(cli, ["train", "--campaign", str(plan), "--out", str(tmp_path / "c"), "--format", "json"])
+    res = CliRunner().invoke(cli, ["train", "--campaign", str(plan), "-o", str(tmp_path / "c"), "--format", "json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
     assert [r["run"] for r in out["runs"]] == ["ippo-flow-easy-s0"] and out["runs"][0]["status"] == "complete"
-    bad = CliRunner().invoke(cli, ["train", "--campaign", "paper", "--seed", "1", "--out", str(tmp_path / "d")])
+    bad = CliRunner().invoke(cli, ["train", "--campaign", "paper", "--seed", "1", "-o", str(tmp_path / "d")])
     assert bad.exit_code == 2 and "--campaign takes the runs from its plan" in bad.stderr
-    gpus = CliRunner().invoke(cli, ["train", "--campaign", str(plan), "--gpus-per-run", "1", "--out", str(tmp_path / "e")])
+    gpus = CliRunner().invoke(cli, ["train", "--campaign", str(plan), "--gpus-per-run", "1", "-o", str(tmp_path / "e")])
     assert gpus.exit_code == 2 and "--executor ray" in gpus.stderr

@@ -164,12 +164,12 @@ def test_training_realizations_are_never_evaluation_instances():  # T-CURRICULUM
 
 def test_train_usage_errors_exit_2_with_a_message(tmp_path):  # T-CLI
     runner = CliRunner()
-    base = ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "0", "--out", str(tmp_path / "r")]
+    base = ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "0", "-o", str(tmp_path / "r")]
     for extra, message in ((["--set", "ppo.nope=1"], "ppo has no 'nope'"), (["--steps", "7"], "split evenly"),
                            (["--set", "oops"], "KEY=VALUE")):
         res = runner.invoke(cli, [*base, *extra])
         assert res.exit_code == 2 and message in res.output, res.output
-    res = runner.invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "nope", "--seed", "0", "--out", str(tmp_path)])
+    res = runner.invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "nope", "--seed", "0", "-o", str(tmp_path)])
     assert res.exit_code == 2 and "unknown scenario" in res.output
     (tmp_path / "occupied").mkdir()
     (tmp_path / "occupied" / "x.txt").write_text("x")
@@ -181,12 +181,16 @@ def test_train_print_config_and_settings_file(tmp_path):  # T-CLI
     settings = tmp_path / "s.yaml"
     settings.write_text("ppo:\n  clip: 0.3\nalgorithm: ippo\n")
     res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
-                                   "--out", str(tmp_path / "r"), "--config", str(settings), "--set", "ppo.epochs=2",
+                                   "-o", str(tmp_path / "r"), "--config", str(settings), "--set", "ppo.epochs=2",
                                    "--print-config"])
     assert res.exit_code == 0, res.output
     config = json.loads(res.output)
     assert config["ppo"]["clip"] == 0.3 and config["ppo"]["epochs"] == 2 and config["seed"] == 1
     settings.write_text("algorithm: mappo\n")
     res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
-                                   "--out", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
-    assert res.exit_code == 2 and "command line says" in res.output
+                                   "-o", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
+    assert res.exit_code == 1 and "command line says" in res.output  # the file's content is invalid
+    settings.write_text("ppo:\n  nope: 1\n")
+    res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
+                                   "-o", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
+    assert res.exit_code == 1 and "s.yaml" in res.output and "ppo has no 'nope'" in res.output

@@ -144,12 +144,17 @@ def test_validation_rows_and_the_policy_factory(tmp_path):  # T-VALIDATION, T-EV
     from agspec.pettingzoo import parallel_env
 
     config = tiny("ippo", **{"budget.env_steps": 16, "curriculum.realizations": 2, "curriculum.indices": [0, 1],
-                             "validation.indices": [200]})
+                             "validation.indices": [200], "validation.actions": ["greedy", "sample"]})
     summary = train(config, tmp_path / "run")
     rows = check_schemas(tmp_path / "run")
-    phases = [r["phase"] for r in rows if r["kind"] == "validation"]
-    assert phases == ["initial", "block-0", "block-1"]
-    assert summary["validation"]["phase"] == "block-1" and summary["validation"]["indices"] == [200]
+    phases = [(r["phase"], r["action"]) for r in rows if r["kind"] == "validation"]
+    assert phases == [(p, a) for p in ("initial", "block-0", "block-1") for a in ("greedy", "sample")]
+    assert summary["validation"]["phase"] == "block-1" and summary["validation"]["action"] == "greedy"
+    quiet = tiny("ippo", **{"budget.env_steps": 16, "curriculum.realizations": 2, "curriculum.indices": [0, 1],
+                            "validation.indices": [200], "validation.initial": False, "validation.every_block": False})
+    train(quiet, tmp_path / "quiet")  # RES-VALIDATION-SCHEDULE: the last block is always validated
+    assert [(r["phase"], r["action"]) for r in check_schemas(tmp_path / "quiet") if r["kind"] == "validation"] == [
+        ("block-1", "greedy")]
     env = parallel_env(SCENARIO, index=200)
     obs, infos = env.reset(seed=0)
     policy = load_policy(tmp_path / "run")(env)
@@ -158,12 +163,16 @@ def test_validation_rows_and_the_policy_factory(tmp_path):  # T-VALIDATION, T-EV
         assert all(obs[a]["action_mask"][x] == 1 for a, x in actions.items())
         assert actions == policy(obs, infos)  # deterministic
         obs, _r, _t, _tr, infos = env.step(actions)
+    obs, infos = env.reset(seed=0)
+    sampled = [load_policy(tmp_path / "run", "sample")(env) for _ in range(2)]
+    first, second = sampled[0](obs, infos), sampled[1](obs, infos)
+    assert first == second and all(obs[a]["action_mask"][x] == 1 for a, x in first.items())  # seeded by the episode
 
 
 def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CHECKPOINT
     runner = CliRunner()
     out = tmp_path / "run"
-    args = ["train", "--algorithm", "ippo", "--scenario", SCENARIO, "--seed", "0", "--out", str(out), "--steps", "10",
+    args = ["train", "--algorithm", "ippo", "--scenario", SCENARIO, "--seed", "0", "-o", str(out), "--steps", "10",
             "--threads", "1", "--set", "ppo.steps_per_update=2", "--set", "ppo.minibatch=32",
             "--set", "validation.indices=[]", "--set", "record.every_steps=2", "--format", "json"]
     res = runner.invoke(cli, args)
@@ -175,7 +184,7 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     assert res.exit_code == 0, res.output
     bundle = tmp_path / "b.json"
     res = runner.invoke(cli, ["evaluate", "--policy", str(out), "--scenario", SCENARIO, "--indices", "1000",
-                              "--repeat", "0", "--out", str(bundle), "--format", "json"])
+                              "--repeat", "0", "-o", str(bundle), "--format", "json"])
     assert res.exit_code == 0, res.output
     data = json.loads(bundle.read_text())
     (ident,) = [p for p in data["policies"] if p["kind"] == "checkpoint"]
@@ -193,3 +202,28 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     res = runner.invoke(cli, ["evaluate", "--policy", str(tmp_path / "half"), "--scenario", SCENARIO,
                               "--indices", "1000"])
     assert res.exit_code == 2 and "not complete" in res.output
+
+
+def test_one_process_at_a_time_trains_into_a_run_directory(tmp_path):  # T-RUN-DIR
+    import fcntl
+
+    from agspec.train.rundir import RunDirError
+
+    out = tmp_path / "run"
+    out.mkdir()
+    with open(out / ".lock", "a") as fh:  # another process holds the run directory
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        import subprocess
+        import sys
+
+        code = ("from agspec.train.api import train, resolve_config; import sys\n"
+                "c = resolve_config('ippo', 'flow-easy', 0, {'budget.env_steps': 5, 'validation.indices': []})\n"
+                f"train(c, {str(out)!r})")
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+        assert proc.returncode != 0 and "another process is training into this directory" in proc.stderr
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    with pytest.raises(RunDirError, match="not empty"):
+        train(tiny("ippo"), foreign)
+    assert sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]  # nothing written into it

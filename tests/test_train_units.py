@@ -221,3 +221,75 @@ def test_optimizers_are_adamw_with_the_tables_settings(algorithm):  # T-ADAMW, R
         group = opt.param_groups[0]
         assert (group["lr"], group["eps"], group["weight_decay"], group["betas"]) == (
             config["lr"][role], 1e-5, 0.01, (0.9, 0.999))
+
+
+def test_clipped_objectives_against_hand_computations():  # T-PPO-UPDATE, RES-VALUE-LOSS
+    from agspec.train.ppo import clipped_surrogate, clipped_value_loss
+
+    ratio, adv = torch.tensor([0.5, 1.05, 1.5]), torch.tensor([1.0, -1.0, 2.0])
+    # min(0.5, 0.9) = 0.5; min(-1.05, -1.05) = -1.05; min(3.0, 1.1 * 2) = 2.2
+    assert float(clipped_surrogate(ratio, adv, 0.10)) == pytest.approx((0.5 - 1.05 + 2.2) / 3)
+    v, old, ret = torch.tensor([1.0]), torch.tensor([0.0]), torch.tensor([2.0])
+    # V_old + clip(1, ±0.2) = 0.2: squared max((1-2)², (0.2-2)²) = 3.24; Huber max(0.5·1², 1.8 - 0.5) = 1.3
+    assert float(clipped_value_loss(v, old, ret, 0.20, "mse")) == pytest.approx(3.24)
+    assert float(clipped_value_loss(v, old, ret, 0.20, "huber")) == pytest.approx(1.3)
+
+
+def _learner_and_batch(algorithm="ippo", **overrides):
+    from agspec.train.ppo import PPOLearner, Rollout
+
+    config = resolve_config(algorithm, "flow-easy", 0, {"ppo.minibatch": 16, **overrides})
+    learner = PPOLearner(config, 16, 8, torch.device("cpu"), gen(), gen(1))
+    g = gen(2)
+    obs = (torch.rand(4, 1, 16, OBS, generator=g) < 0.02).float()
+    mask = (torch.rand(4, 1, 16, A, generator=g) < 0.2).to(torch.int8)
+    mask[..., 0] = 1
+    actions, logp, values = learner.act(obs, mask, torch.rand(4, 1, 8, generator=g))
+    batch = Rollout(obs, mask, torch.rand(4, 1, 8, generator=g), actions, logp, values,
+                    torch.randn(4, 1, 16, generator=g), torch.zeros(4, 1, dtype=torch.bool), torch.zeros(1, 16))
+    return learner, batch
+
+
+def _params(module):
+    return [p.detach().clone() for p in module.parameters()]
+
+
+def test_an_update_runs_the_tables_epochs_and_minibatches_and_the_kl_stop_ends_it():  # T-PPO-UPDATE, RES-KL-STOP
+    learner, batch = _learner_and_batch(**{"ppo.target_kl": 1e6})
+    stats = learner.update(batch, steps_done=10_000)
+    assert stats["minibatches"] == 4 * 4 and stats["samples"] == 4 * 64 and not stats["kl_early_stop"]
+    learner, batch = _learner_and_batch(**{"ppo.target_kl": 1e-12})
+    stats = learner.update(batch, steps_done=10_000)
+    # a minibatch's KL is measured before its own step: the first sees the rollout's policy (KL 0), the
+    # second the policy after one step, which exceeds 1.5 x target, and the update ends there
+    assert stats["kl_early_stop"] and stats["minibatches"] == 2
+
+
+def test_during_the_warm_up_only_the_critic_learns():  # T-WARMUP
+    learner, batch = _learner_and_batch(**{"ppo.target_kl": 1e-12})
+    actor, critic = _params(learner.actor), _params(learner.critic)
+    stats = learner.update(batch, steps_done=3200)
+    assert not stats["actor_updated"] and not stats["kl_early_stop"] and stats["minibatches"] == 16
+    assert all(torch.equal(a, b) for a, b in zip(actor, _params(learner.actor)))
+    assert not all(torch.equal(a, b) for a, b in zip(critic, _params(learner.critic)))
+
+
+@pytest.mark.parametrize("done", [True, False])
+def test_td_target_is_single_network_with_mse(done):  # T-QMIX-UPDATE
+    from agspec.train.qmix import QMIXLearner
+
+    config = resolve_config("qmix", "flow-easy", 0, {"replay.batch": 1})
+    learner = QMIXLearner(config, 4, 6, torch.device("cpu"), gen(), gen(1), np.random.default_rng(0))
+    rng = np.random.default_rng(3)
+    t = _transition(rng, n=4, s=6)
+    t = (*t[:6], done, t[7], rng.random(6).astype(np.float32))
+    learner.replay.add(*t)
+    with torch.no_grad():  # by hand: Q_tot of the chosen actions, target from the target networks only
+        q = learner.qnet(torch.from_numpy(t[0]))
+        chosen = q.gather(1, torch.from_numpy(t[2]).long().unsqueeze(1)).T
+        q_tot = learner.mixer(chosen, torch.from_numpy(t[7]).unsqueeze(0))
+        nxt = learner.target_qnet(torch.from_numpy(t[4])).masked_fill(torch.from_numpy(t[5]) == 0, -1e9).max(1).values
+        boot = learner.target_mixer(nxt.unsqueeze(0), torch.from_numpy(t[8]).unsqueeze(0))
+        target = t[3] + (0.0 if done else 0.99 * float(boot))
+    stats = learner.train_step()
+    assert stats["td_loss"] == pytest.approx((float(q_tot) - target) ** 2, rel=1e-5)

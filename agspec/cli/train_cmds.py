@@ -1,7 +1,8 @@
 """`agspec train`: one training run of IPPO, MAPPO or QMIX as tab:marlconfig gives them (T-CLI).
 
-Exit codes (F-EXIT-CODES): 2 for a bad option, setting, scenario or run directory and for a missing
-extra; 130 when interrupted (the run resumes from its last checkpoint); 4 for a bug in agspec.
+Exit codes (F-EXIT-CODES): 1 for a scenario or settings file whose content is invalid; 2 for a bad
+option or setting, a file that cannot be reached, an unusable run directory and a missing extra; 130
+when interrupted (the run resumes from its last checkpoint); 4 for a bug in agspec.
 """
 
 from __future__ import annotations
@@ -11,8 +12,9 @@ from typing import Any, Mapping
 
 import click
 
-from agspec.cli.common import EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
+from agspec.cli.grammar import output_option
 
 ALGORITHMS = ("ippo", "mappo", "qmix")
 IDENTITY = ("algorithm", "scenario", "seed")
@@ -25,15 +27,15 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
     try:
         data = load_json(path) if path.suffix.lower() == ".json" else parse_yaml(read_text(path), str(path))
     except InputError as exc:
-        fail(str(exc), EXIT_USAGE)
+        fail(str(exc), exc.exit_code)
     if not isinstance(data, dict):
-        fail(f"{path}: a settings file must hold a mapping of settings, e.g. {{ppo: {{clip: 0.2}}}}")
+        fail(f"{path}: a settings file must hold a mapping of settings, e.g. {{ppo: {{clip: 0.2}}}}", EXIT_INVALID)
     data = dict(data)
     for key in (*IDENTITY, "schema"):
         if key in data:
             value = data.pop(key)
             if key in options and value != options[key]:
-                fail(f"{path}: {key} is {value!r} but the command line says {options[key]!r}")
+                fail(f"{path}: {key} is {value!r} but the command line says {options[key]!r}", EXIT_INVALID)
     return data
 
 
@@ -41,8 +43,8 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 @click.option("--algorithm", type=click.Choice(ALGORITHMS), default=None, help="The MARL reference to train.")
 @click.option("--scenario", default=None, metavar="NAME|FILE.ag", help="Official scenario name or a scenario file.")
 @click.option("--seed", type=SEED_RANGE, default=None, help="Algorithm seed (the paper used 0-9).")
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="Run directory (new or empty; with --resume, the cut run's); with --campaign, the campaign's.")
+@output_option("Run directory (new or empty; with --resume, the cut run's); with --campaign, the campaign's.",
+               file=False)
 @click.option("--campaign", "campaign_plan", default=None, metavar="paper|PLAN.json|PLAN.yaml",
               help="Run a campaign instead of one run: the paper's 270 runs, or a plan of algorithms x scenarios "
                    "x seeds (schemas/training-plan.schema.json); resumable, each run evaluated on final-test.")
@@ -59,23 +61,23 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
               help="JSON/YAML file of settings (sections or dotted keys), applied before --set.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
               help="Override one setting, e.g. --set ppo.clip=0.2 (repeatable; see spec/16-training.md).")
-@click.option("--resume", is_flag=True, help="Continue the cut run in --out from its last checkpoint.")
+@click.option("--resume", is_flag=True, help="Continue the cut run in -o/--output from its last checkpoint.")
 @click.option("--print-config", is_flag=True, help="Print the resolved configuration and exit without training.")
 @click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True,
               help="Final summary as a table or run.json's JSON.")
 @executor_options
-def train(algorithm: str | None, scenario: str | None, seed: int | None, out: Path, campaign_plan: str | None,
+def train(algorithm: str | None, scenario: str | None, seed: int | None, output: str | None, campaign_plan: str | None,
           jobs: int | None, gpus_per_run: float, steps: int | None, envs: int | None, device: str | None,
           threads: int | None, config_file: Path | None, sets: tuple[str, ...], resume: bool, print_config: bool,
           fmt: str, campaign: Any) -> None:
     """Train IPPO, MAPPO or QMIX on one scenario with the paper's configuration (tab:marlconfig).
 
     Writes the resolved configuration, the training record (JSON Lines, as it goes), checkpoints and
-    the final policy into --out; `agspec evaluate --policy OUT` evaluates it, `agspec report OUT --to
+    the final policy into -o/--output; `agspec evaluate --policy OUT` evaluates it, `agspec report OUT --to
     svg` draws its curves.  Needs the extra agspec[train] (PyTorch).
     """
-    from agspec.train.api import MissingExtra, resolve_config
-    from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override
+    from agspec.train.api import MissingExtra, scenario_family
+    from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override, resolve
 
     if campaign_plan is not None:
         from agspec.cli.train_campaign import run_plan
@@ -88,17 +90,30 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, out: Pa
                            ("runtime.threads", threads)):
             if value is not None:
                 settings[key] = value
-        run_plan(campaign_plan, out, settings, campaign, gpus_per_run, fmt)
+        if output is None:
+            fail("missing -o/--output DIRECTORY: the campaign directory")
+        run_plan(campaign_plan, Path(output), settings, campaign, gpus_per_run, fmt)
         return
     missing = [f"--{name}" for name, value in (("algorithm", algorithm), ("scenario", scenario), ("seed", seed))
                if value is None]
     if missing:
         fail(f"missing {', '.join(missing)} (or give --campaign paper|PLAN)")
+    if output is None:
+        fail("missing -o/--output DIRECTORY: the run directory")
+    out = Path(output)
     try:
-        overrides: dict[str, Any] = {}
-        if config_file is not None:
-            data = _settings_file(config_file, {"algorithm": algorithm, "scenario": scenario, "seed": seed})
-            overrides.update(flatten_settings(data, paper_defaults(algorithm)))
+        family = scenario_family(scenario)
+    except ConfigError as exc:  # an invalid scenario file is invalid input; an unknown or unreadable one, usage
+        fail(str(exc), EXIT_INVALID if exc.invalid_input else EXIT_USAGE)
+    overrides: dict[str, Any] = {}
+    if config_file is not None:
+        data = _settings_file(config_file, {"algorithm": algorithm, "scenario": scenario, "seed": seed})
+        overrides = flatten_settings(data, paper_defaults(algorithm))
+        try:
+            resolve(algorithm, scenario, seed, family, overrides)
+        except ConfigError as exc:  # a setting of the file: the file's content is invalid
+            fail(f"{config_file}: {exc}", EXIT_INVALID)
+    try:
         for text in sets:
             key, value = parse_override(text)
             overrides[key] = value
@@ -106,7 +121,7 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, out: Pa
                            ("runtime.threads", threads)):
             if value is not None:
                 overrides[key] = value
-        config = resolve_config(algorithm, scenario, seed, overrides)
+        config = resolve(algorithm, scenario, seed, family, overrides)
     except ConfigError as exc:
         fail(str(exc), EXIT_USAGE)
     if print_config:
@@ -128,8 +143,12 @@ def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
     from agspec.train.api import train as train_run
     from agspec.train.checkpoint import CheckpointError
     from agspec.train.config import ConfigError
-    from agspec.train.rundir import RunDirError
+    from agspec.train.rundir import RunDirError, refuse_foreign
 
+    try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
+        refuse_foreign(out)
+    except RunDirError as exc:
+        fail(str(exc), EXIT_USAGE)
     total = config["budget"]["env_steps"]
     with Progress(TextColumn("[bold]train {task.fields[label]}"), BarColumn(), TextColumn("{task.completed:,}/{task.total:,} steps"),
                   TextColumn("{task.description}"), TimeElapsedColumn(), TimeRemainingColumn(), console=stderr,

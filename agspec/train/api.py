@@ -36,10 +36,12 @@ def require_torch() -> Any:
 
 def scenario_family(scenario: str) -> str | None:
     """The family of a scenario name or file (T-CURRICULUM's seed offset); ConfigError if unknown."""
-    from agspec.catalogue import CatalogueError, load_scenario_bundle
+    from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
 
     try:
         ir, _recipes, _profile = load_scenario_bundle(scenario)
+    except InvalidDocumentError as exc:
+        raise ConfigError(str(exc), invalid_input=True) from None
     except CatalogueError as exc:
         raise ConfigError(str(exc)) from None
     return ir.get("family")
@@ -69,11 +71,11 @@ def train(config: Mapping[str, Any], out_dir: str | os.PathLike, *, resume: bool
     return run(dict(config), out_dir, resume=resume, progress=progress)
 
 
-def load_policy(run_dir: str | os.PathLike) -> Callable[[Any], Callable[..., dict[str, int]]]:
+def load_policy(run_dir: str | os.PathLike, action: str | None = None) -> Callable[[Any], Callable[..., dict[str, int]]]:
     """A policy factory for ``agspec evaluate --policy RUN_DIR`` (F-POLICY-PYTHON): ``factory(env)``
     returns ``policy(observations, infos) -> actions``, the masked argmax of the trained network
-    (T-EVAL-ACTION)."""
+    (T-EVAL-ACTION); ``action="sample"`` plays the sampled training-time behaviour instead."""
     require_torch()
     from agspec.train.policy import factory_from_run
 
-    return factory_from_run(run_dir)
+    return factory_from_run(run_dir, action)

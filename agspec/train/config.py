@@ -48,7 +48,7 @@ _COMMON: dict[str, Any] = {
     # T-REWARD: coalition_milestone_v1 (A-REWARD-MILESTONE); support credit per method below
     "reward": {"name": "coalition_milestone_v1", "support_credit": None},
     # T-VALIDATION: online monitoring on the validation split (RES-VALIDATION-SCHEDULE)
-    "validation": {"indices": [200, 201, 202, 203, 204], "every_block": True},
+    "validation": {"indices": [200, 201, 202, 203, 204], "initial": True, "every_block": True, "actions": ["greedy"]},
     # T-RECORD: one training-record row per 16,000 environment steps (the original's interval)
     "record": {"every_steps": 16_000},
     # T-RUN-DIR: resumable checkpoints (block boundaries always; also every N steps where cheap)
@@ -124,7 +124,14 @@ ALGORITHM_TABLE: dict[str, dict[str, Any]] = {
 
 
 class ConfigError(ValueError):
-    """A bad algorithm, scenario, override or value (the message names the key)."""
+    """A bad algorithm, scenario, override or value (the message names the key).
+
+    ``invalid_input`` marks a file whose content is invalid (F-EXIT-CODES: exit 1), as opposed to a
+    bad option or a file that cannot be reached (exit 2)."""
+
+    def __init__(self, message: str, invalid_input: bool = False):
+        super().__init__(message)
+        self.invalid_input = invalid_input
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
@@ -238,6 +245,9 @@ def check(config: Mapping[str, Any]) -> None:
         raise ConfigError(f"runtime.threads must be a positive integer or null, got {threads!r}")
     if not isinstance(config["runtime"]["device"], str):
         raise ConfigError("runtime.device must be a string such as cpu or cuda")
+    actions = config["validation"]["actions"]
+    if not isinstance(actions, list) or not actions or any(a not in ("greedy", "sample") for a in actions):
+        raise ConfigError(f"validation.actions must be a non-empty list of greedy and sample, got {actions!r}")
     for index in config["validation"]["indices"]:
         if isinstance(index, bool) or not isinstance(index, int) or index < 0:
             raise ConfigError(f"validation.indices must be suite indices, got {index!r}")

@@ -3,7 +3,9 @@
 ``factory_from_run(RUN_DIR)`` is what ``agspec evaluate --policy RUN_DIR`` calls: it returns
 ``factory(env)`` (once per episode) whose policy maps the PettingZoo observations to the masked
 argmax of the actor's logits (IPPO, MAPPO) or of the Q values (QMIX), first index on ties — the
-paper's deterministic evaluation action.  A loaded network is kept per (file, size, mtime), so the
+paper's deterministic evaluation action.  ``action="sample"`` (a target ending in ``#sample``) plays
+the training-time behaviour instead — a draw from the masked softmax (IPPO, MAPPO) or ε-greedy at the
+final ε (QMIX) — seeded by the episode's execution seed, for monitoring only (T-VALIDATION).  A loaded network is kept per (file, size, mtime), so the
 file is read once per process however many episodes it plays.
 """
 
@@ -22,9 +24,21 @@ from agspec.train.checkpoint import CheckpointError, load_policy_file
 from agspec.train.rundir import POLICY
 
 
+SAMPLE_SUFFIX = "#sample"
+FINAL_EPSILON = 0.05  # T-QMIX-EXPLORATION: the behaviour policy's ε once the schedule has ended
+
+
+def split_target(target: str | os.PathLike) -> tuple[Path, str]:
+    """(path, action): a target ending in ``#sample`` asks for the sampled behaviour."""
+    text = str(target)
+    if text.endswith(SAMPLE_SUFFIX):
+        return Path(text[: -len(SAMPLE_SUFFIX)]), "sample"
+    return Path(text), "greedy"
+
+
 def policy_path(target: str | os.PathLike) -> Path:
     """A run directory's ``policy.pt``, or a policy file itself."""
-    path = Path(target)
+    path = split_target(target)[0]
     return path / POLICY if path.is_dir() else path
 
 
@@ -65,16 +79,39 @@ def greedy_actions(net: torch.nn.Module, obs: np.ndarray, mask: np.ndarray) -> n
         return nets.greedy(net(torch.from_numpy(obs)), torch.from_numpy(mask)).numpy()
 
 
-def factory_from_run(target: str | os.PathLike) -> Callable[[Any], Callable[..., dict[str, int]]]:
+def sampled_actions(net: torch.nn.Module, kind: str, obs: np.ndarray, mask: np.ndarray,
+                    gen: torch.Generator) -> np.ndarray:
+    """The training-time behaviour: a masked softmax draw (actor) or ε-greedy at the final ε (Q net)."""
+    with torch.no_grad():
+        scores = net(torch.from_numpy(obs))
+        m = torch.from_numpy(mask)
+        if kind == "qnet":
+            best = nets.greedy(scores, m)
+            explore = torch.rand(best.shape, generator=gen) < FINAL_EPSILON
+            uniform = torch.multinomial(m.float(), 1, generator=gen).squeeze(-1)
+            return torch.where(explore, uniform, best).numpy()
+        probs = torch.softmax(nets.masked_logits(scores, m), dim=-1)
+        return torch.multinomial(probs, 1, generator=gen).squeeze(-1).numpy()
+
+
+def factory_from_run(target: str | os.PathLike, action: str | None = None
+                     ) -> Callable[[Any], Callable[..., dict[str, int]]]:
     """F-POLICY-PYTHON: ``factory(env) -> policy(observations, infos) -> actions``."""
-    net, _meta = load_network(target)
+    path, suffix_action = split_target(target)
+    action = action or suffix_action
+    net, meta = load_network(path)
+    kind = meta["architecture"]["net"]
 
     def factory(env: Any) -> Callable[..., dict[str, int]]:
+        seed = int((getattr(env, "instance", None) or {}).get("seeds", {}).get("execution") or 0)
+        gen = torch.Generator().manual_seed(seed)
+
         def policy(observations: Mapping[str, Any], infos: Mapping[str, Any]) -> dict[str, int]:
             agents = list(observations)
             obs = np.stack([observations[a]["observation"] for a in agents])
             mask = np.stack([observations[a]["action_mask"] for a in agents])
-            return {a: int(x) for a, x in zip(agents, greedy_actions(net, obs, mask))}
+            chosen = sampled_actions(net, kind, obs, mask, gen) if action == "sample" else greedy_actions(net, obs, mask)
+            return {a: int(x) for a, x in zip(agents, chosen)}
 
         return policy
 

@@ -65,6 +65,19 @@ def gae(rewards: torch.Tensor, values: torch.Tensor, dones: torch.Tensor, last_v
     return adv, adv + values
 
 
+def clipped_surrogate(ratio: torch.Tensor, adv: torch.Tensor, clip: float) -> torch.Tensor:
+    """T-PPO-UPDATE: mean(min(ρA, clip(ρ, 1 − ε, 1 + ε)A)), to be maximized."""
+    return torch.minimum(ratio * adv, ratio.clamp(1 - clip, 1 + clip) * adv).mean()
+
+
+def clipped_value_loss(value: torch.Tensor, old: torch.Tensor, returns: torch.Tensor, clip: float,
+                       kind: str) -> torch.Tensor:
+    """T-PPO-UPDATE: mean(max(ℓ(V, R), ℓ(V_old + clip(V − V_old, ±c), R))), ℓ Huber or squared (RES-VALUE-LOSS)."""
+    loss = F.smooth_l1_loss if kind == "huber" else F.mse_loss
+    clipped = old + (value - old).clamp(-clip, clip)
+    return torch.maximum(loss(value, returns, reduction="none"), loss(clipped, returns, reduction="none")).mean()
+
+
 def explained_variance(pred: torch.Tensor, target: torch.Tensor) -> float:
     """1 − Var(target − pred) / Var(target); 0 when the target does not vary (T-RECORD)."""
     var = torch.var(target)
@@ -163,7 +176,7 @@ class PPOLearner:
         sums: dict[str, list[float]] = {k: [] for k in ("actor_loss", "critic_loss", "entropy", "approx_kl",
                                                         "clip_fraction")}
         stopped = False
-        count = obs.shape[0]
+        count, seen = obs.shape[0], 0
         for _epoch in range(p["epochs"]):
             order = torch.randperm(count, generator=self.gen, device=self.device)
             for idx in order.split(p["minibatch"]):
@@ -172,9 +185,7 @@ class PPOLearner:
                 entropy = -(logp_all.exp() * logp_all).sum(-1).mean()
                 log_ratio = logp - old_logp[idx]
                 ratio = log_ratio.exp()
-                a = adv[idx]
-                surrogate = torch.minimum(ratio * a, ratio.clamp(1 - p["clip"], 1 + p["clip"]) * a)
-                actor_loss = -surrogate.mean() - coef * entropy
+                actor_loss = -clipped_surrogate(ratio, adv[idx], p["clip"]) - coef * entropy
                 approx_kl = ((ratio - 1.0) - log_ratio).mean()
                 if learn_actor:
                     self.actor_opt.zero_grad()
@@ -183,14 +194,12 @@ class PPOLearner:
                     self.actor_opt.step()
                 te = idx // n_agents
                 value = self.critic(self.critic_input(obs[idx], state[te] if state is not None else None))
-                clipped = old_values[idx] + (value - old_values[idx]).clamp(-p["value_clip"], p["value_clip"])
-                loss_fn = F.smooth_l1_loss if p["value_loss"] == "huber" else F.mse_loss  # RES-VALUE-LOSS
-                critic_loss = torch.maximum(loss_fn(value, returns[idx], reduction="none"),
-                                            loss_fn(clipped, returns[idx], reduction="none")).mean()
+                critic_loss = clipped_value_loss(value, old_values[idx], returns[idx], p["value_clip"], p["value_loss"])
                 self.critic_opt.zero_grad()
                 critic_loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.critic.parameters(), p["max_grad_norm"])
                 self.critic_opt.step()
+                seen += int(idx.numel())
                 for key, value_ in (("actor_loss", actor_loss), ("critic_loss", critic_loss), ("entropy", entropy),
                                     ("approx_kl", approx_kl),
                                     ("clip_fraction", ((ratio - 1.0).abs() > p["clip"]).float().mean())):
@@ -208,7 +217,7 @@ class PPOLearner:
                 "explained_variance": explained_variance(predicted, returns),
                 "advantage_mean": float(adv_mean), "advantage_std": float(adv_std),
                 "entropy_coefficient": coef, "actor_updated": learn_actor, "kl_early_stop": stopped,
-                "minibatches": len(sums["entropy"])}
+                "minibatches": len(sums["entropy"]), "samples": seen}
 
     # ------------------------------------------------------------------ checkpoints
 

@@ -119,13 +119,20 @@ class Run:
         return data
 
     def checkpoint(self) -> None:
+        """T-RESUME: the QMIX replay goes to a file named by the step count first, then the checkpoint that
+        names it replaces the old one, then older replays go: a cut at any point leaves a matching pair."""
         pos = self.position
         pos["checkpoint_steps"] = pos["steps"]
+        replay = None
         if self.config["algorithm"] == "qmix":
-            self.learner.replay.save(self.out / rundir.REPLAY)
+            replay = rundir.replay_name(pos["steps"])
+            self.learner.replay.save(self.out / replay)
         save_checkpoint(self.out / rundir.CHECKPOINT, {
             "config_sha256": self.digest, "position": dict(pos), "learner": self.learner.state_dict(),
-            "record_bytes": self.record.size(), "elapsed_s": self.elapsed()})
+            "record_bytes": self.record.size(), "elapsed_s": self.elapsed(), "replay": replay})
+        for old in self.out.glob(rundir.REPLAY_GLOB):
+            if old.name != replay:
+                old.unlink()
 
     def restore(self) -> None:
         data = load_checkpoint(self.out / rundir.CHECKPOINT)
@@ -135,7 +142,7 @@ class Run:
         if self.config["algorithm"] == "qmix":
             from agspec.train.qmix import Replay
 
-            self.learner.replay = Replay.load(self.out / rundir.REPLAY)
+            self.learner.replay = Replay.load(self.out / data["replay"])
         self.position = dict(data["position"])
         self.position["resumed"] += 1
         self.record.truncate(int(data["record_bytes"]))
@@ -156,27 +163,32 @@ class Run:
         self.notify({"phase": "train", "total": self.config["budget"]["env_steps"], **row})
 
     def validate(self, phase: str) -> None:
-        """T-VALIDATION: the current policy, greedily, on the validation indices (as agspec evaluate runs it)."""
-        indices = self.config["validation"]["indices"]
+        """T-VALIDATION: the current policy, greedily (and sampled, if asked), on the validation indices,
+        through the evaluation's own episode runner."""
         save_policy(self.out / rundir.POLICY, self.config, self.digest, self.learner.policy_net(), self.position["steps"])
-        if not indices:
+        if not self.validation:
             return
         from agspec.evaluate import run_episode
         from agspec.policy.contract import PolicySpec
+        from agspec.train.policy import SAMPLE_SUFFIX
 
-        spec = PolicySpec("checkpoint", str(self.out / rundir.POLICY), "validation")
-        delivered, completion = [], []
-        for instance in self.validation:
-            metrics = run_episode(instance, spec).metrics
-            delivered.append(int(metrics["delivered"]))
-            completion.append(float(metrics["completion_rate"]))
-        row = {"kind": "validation", "phase": phase, "steps": self.position["steps"], "indices": list(indices),
-               "delivered": delivered, "delivered_mean": float(np.mean(delivered)),
-               "completion_rate_mean": float(np.mean(completion)), "elapsed_s": self.elapsed()}
-        self.record.write(row)
-        self.position["validation"] = {k: row[k] for k in ("phase", "steps", "indices", "delivered", "delivered_mean",
-                                                           "completion_rate_mean")}
-        self.notify({"phase": "validation", "total": self.config["budget"]["env_steps"], **row})
+        for action in self.config["validation"]["actions"]:
+            target = str(self.out / rundir.POLICY) + (SAMPLE_SUFFIX if action == "sample" else "")
+            spec = PolicySpec("checkpoint", target, f"validation-{action}")
+            delivered, completion = [], []
+            for instance in self.validation:
+                metrics = run_episode(instance, spec).metrics
+                delivered.append(int(metrics["delivered"]))
+                completion.append(float(metrics["completion_rate"]))
+            row = {"kind": "validation", "phase": phase, "action": action, "steps": self.position["steps"],
+                   "indices": list(self.config["validation"]["indices"]), "delivered": delivered,
+                   "delivered_mean": float(np.mean(delivered)), "completion_rate_mean": float(np.mean(completion)),
+                   "elapsed_s": self.elapsed()}
+            self.record.write(row)
+            if action == "greedy" or self.position["validation"] is None or self.position["validation"]["phase"] != phase:
+                self.position["validation"] = {k: row[k] for k in ("phase", "action", "steps", "indices", "delivered",
+                                                                   "delivered_mean", "completion_rate_mean")}
+            self.notify({"phase": "validation", "total": self.config["budget"]["env_steps"], **row})
 
     # ------------------------------------------------------------------ the loop
 
@@ -213,7 +225,10 @@ class Run:
             self.record.write({"kind": "header", "schema": RECORD_SCHEMA, "algorithm": c["algorithm"],
                                "scenario": c["scenario"], "seed": c["seed"], "config_sha256": self.digest,
                                "budget": c["budget"]["env_steps"], "agspec_version": agspec.__version__})
-            self.validate("initial")
+            if c["validation"]["initial"]:
+                self.validate("initial")
+            else:
+                save_policy(self.out / rundir.POLICY, c, self.digest, self.learner.policy_net(), 0)
             self.checkpoint()
         self.write_summary("running")
         pos = self.position
@@ -249,16 +264,17 @@ def run(config: dict[str, Any], out_dir: Any, *, resume: bool = False, progress:
     """Train one run into ``out_dir`` (see :func:`agspec.train.api.train`)."""
     cfg.check(config)
     out = Path(out_dir)
-    if resume and rundir.is_complete(out):
-        rundir.prepare(out, config, resume=True)  # still refuse another configuration
-        return rundir.read_summary(out)
-    has_checkpoint = rundir.prepare(out, config, resume)
-    if not (out / rundir.CONFIG).exists():
-        rundir.write_json_atomic(out / rundir.CONFIG, config)
-    if config["runtime"]["threads"] is not None:  # the process's intra-op threads: this command owns them
-        torch.set_num_threads(config["runtime"]["threads"])
-    run_ = Run(config, out, progress)
-    return run_.train(resume=has_checkpoint)
+    rundir.refuse_foreign(out)  # before the lock file is made: never write into a directory that is not a run
+    with rundir.exclusive(out):
+        if resume and rundir.is_complete(out):
+            rundir.prepare(out, config, resume=True)  # still refuse another configuration
+            return rundir.read_summary(out)
+        has_checkpoint = rundir.prepare(out, config, resume)
+        if not (out / rundir.CONFIG).exists():
+            rundir.write_json_atomic(out / rundir.CONFIG, config)
+        if config["runtime"]["threads"] is not None:  # the process's intra-op threads: this command owns them
+            torch.set_num_threads(config["runtime"]["threads"])
+        return Run(config, out, progress).train(resume=has_checkpoint)
 
 
 __all__ = ["run", "streams", "versions"]

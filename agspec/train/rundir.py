@@ -4,7 +4,7 @@
     SUMMARY      the run summary (schemas/training-run.schema.json), rewritten as the run goes
     RECORD       the training record (schemas/training-record.schema.json), appended as it goes
     CHECKPOINT   the last resumable state (networks, optimizers, random streams, counters)
-    REPLAY       QMIX only: the replay buffer at that checkpoint
+    replay-N.npz QMIX only: the replay buffer at the checkpoint taken after N steps
     POLICY       the final policy: the network the evaluation runs (its SHA-256 is its identity)
 
 No torch here: a campaign inspects run directories without the extra.
@@ -12,17 +12,25 @@ No torch here: a campaign inspects run directories without the extra.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 from agspec.formats.limits import InputError, load_json
 
 RUN_SCHEMA = "agspec-training-run/1"
-CONFIG, SUMMARY, RECORD, CHECKPOINT, REPLAY, POLICY = (
-    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "replay.npz", "policy.pt")
+CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (
+    "config.json", "run.json", "record.jsonl", "checkpoint.pt", "policy.pt", ".lock")
+REPLAY_GLOB = "replay-*.npz"
+
+
+def replay_name(steps: int) -> str:
+    """The QMIX replay saved with the checkpoint taken after ``steps`` environment steps."""
+    return f"replay-{steps:012d}.npz"
 
 
 class RunDirError(ValueError):
@@ -73,6 +81,30 @@ def is_complete(out_dir: str | os.PathLike) -> bool:
     return summary.get("status") == "complete" and path.is_file() and policy.get("sha256") == sha256_file(path)
 
 
+def refuse_foreign(out_dir: Path) -> None:
+    """RunDirError for a path that is a file, or a non-empty directory that holds no training run."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RunDirError(f"{out_dir} exists and is not a directory")
+    if out_dir.is_dir() and not (out_dir / CONFIG).is_file() and any(p.name != LOCK for p in out_dir.iterdir()):
+        raise RunDirError(f"{out_dir} is not empty and holds no training run; choose another -o/--output directory")
+
+
+@contextlib.contextmanager
+def exclusive(out_dir: Path) -> Iterator[None]:
+    """T-RUN-DIR: one process trains into a run directory at a time (an advisory lock on its ``.lock``,
+    released when the process ends however it ends)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with open(out_dir / LOCK, "a") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RunDirError(f"{out_dir}: another process is training into this directory") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def prepare(out_dir: Path, config: Mapping[str, Any], resume: bool) -> bool:
     """Check ``out_dir`` against the run about to start; True when there is a checkpoint to resume.
 
@@ -85,16 +117,16 @@ def prepare(out_dir: Path, config: Mapping[str, Any], resume: bool) -> bool:
     if not out_dir.is_dir():
         raise RunDirError(f"{out_dir} exists and is not a directory")
     if not config_path.is_file():
-        if any(out_dir.iterdir()):
-            raise RunDirError(f"{out_dir} is not empty and holds no training run; choose another --out")
+        if any(p.name != LOCK for p in out_dir.iterdir()):
+            raise RunDirError(f"{out_dir} is not empty and holds no training run; choose another -o/--output directory")
         return False
     if not resume:
-        raise RunDirError(f"{out_dir} already holds a training run; add --resume to continue it, or choose another --out")
+        raise RunDirError(f"{out_dir} already holds a training run; add --resume to continue it, or choose another -o/--output directory")
     stored = read_json(config_path)
     if stored != json.loads(json.dumps(config)):
         diff = sorted(_differences(stored, config))
         raise RunDirError(f"{out_dir} holds a run with another configuration ({', '.join(diff[:5])}); "
-                          "resume it with the same settings, or choose another --out")
+                          "resume it with the same settings, or choose another -o/--output directory")
     return (out_dir / CHECKPOINT).is_file()
 
 
