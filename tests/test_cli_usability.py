@@ -68,7 +68,7 @@ def test_fmt_keeps_an_xor_group_before_its_alternatives_and_the_operations_after
 
 
 def test_seeds_and_indices_outside_the_exact_json_range_are_usage_errors():
-    for args in (["run", "flow-easy", "--seed", str(2**53)], ["instance", "flow-easy", "--index", "-1"],
-                 ["export", "flow-easy", "--seed", str(10**30)]):
+    for args in (["run", "flow-easy", "--generation-seed", str(2**53)], ["instance", "flow-easy", "--index", "-1"],
+                 ["export", "flow-easy", "--generation-seed", str(10**30)]):
         res = CliRunner().invoke(cli, args)
         assert res.exit_code == 2 and "is not in the range" in res.output, args

@@ -38,7 +38,7 @@ def test_instance_prints_the_instance_ir():
 
 def test_instance_writes_a_file(tmp_path):
     out = tmp_path / "inst.json"
-    res = run(instance_cmds.instance, "flow-easy", "--seed", "5", "--execution-seed", "6", "-o", str(out))
+    res = run(instance_cmds.instance, "flow-easy", "--generation-seed", "5", "--execution-seed", "6", "-o", str(out))
     assert res.exit_code == 0
     inst = json.loads(out.read_text(encoding="utf-8"))
     assert inst["id"] == "flow-easy-g5" and inst["seeds"] == {"index": None, "generation": 5, "execution": 6}
@@ -50,8 +50,8 @@ def test_instance_user_errors_exit_2():
     assert res.exit_code == 2 and "unknown scenario `no-such-scenario`" in res.stderr
     assert run(instance_cmds.instance, "flow-easy", "--index", "-3").exit_code == 2
     assert run(instance_cmds.instance, "flow-easy", "--index", "x").exit_code == 2
-    res = run(instance_cmds.instance, "flow-easy", "--index", "1", "--seed", "2")
-    assert res.exit_code == 2 and "either --index or --seed" in res.stderr
+    res = run(instance_cmds.instance, "flow-easy", "--index", "1", "--generation-seed", "2")
+    assert res.exit_code == 2 and "either --index or --generation-seed" in res.stderr
 
 
 def test_fingerprint_of_json_files_and_names(tmp_path):

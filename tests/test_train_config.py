@@ -194,3 +194,16 @@ def test_train_print_config_and_settings_file(tmp_path):  # T-CLI
     res = CliRunner().invoke(cli, ["train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "1",
                                    "-o", str(tmp_path / "r"), "--config", str(settings), "--print-config"])
     assert res.exit_code == 1 and "s.yaml" in res.output and "ppo has no 'nope'" in res.output
+
+
+@pytest.mark.parametrize("scenario,family", [("coalition-easy", "coalition"), ("flow-medium", "flow"),
+                                             ("concurrency-hard", "concurrency")])
+def test_the_trainer_and_the_training_split_share_one_seed_formula(scenario, family):  # A-TRAINING-REALIZATIONS
+    from agspec.marl.curriculum import training_seeds
+    from agspec.train.config import resolve
+    from agspec.train.curriculum import plan
+
+    for seed in (0, 7, 2999):
+        blocks = plan(resolve("ippo", scenario, seed, family, {}))
+        assert [(b.generation_seed, b.execution_seed) for b in blocks] == \
+            [training_seeds(family, seed, 0, r) for r in range(5)]

@@ -140,15 +140,18 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
 def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from agspec.train.api import train as train_run
-    from agspec.train.checkpoint import CheckpointError
-    from agspec.train.config import ConfigError
     from agspec.train.rundir import RunDirError, refuse_foreign
 
     try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
         refuse_foreign(out)
     except RunDirError as exc:
         fail(str(exc), EXIT_USAGE)
+    try:
+        from agspec.train.api import train as train_run
+        from agspec.train.checkpoint import CheckpointError
+    except ImportError as exc:  # the extra is missing: say how to install it (F-EXIT-CODES: usage)
+        fail(f"agspec train needs PyTorch ({exc}): pip install 'agspec[train]'", EXIT_USAGE)
+    from agspec.train.config import ConfigError
     total = config["budget"]["env_steps"]
     with Progress(TextColumn("[bold]train {task.fields[label]}"), BarColumn(), TextColumn("{task.completed:,}/{task.total:,} steps"),
                   TextColumn("{task.description}"), TimeElapsedColumn(), TimeRemainingColumn(), console=stderr,

@@ -53,13 +53,23 @@ def family_offset(family: str) -> int:
                               f"{', '.join(FAMILY_SEED_OFFSET)}; the scenario's family is {family!r}") from None
 
 
+def seed_pair(offset: int, seed: int, stage: int, r: int, generation_base: int = GENERATION_BASE,
+              execution_base: int = EXECUTION_BASE) -> tuple[int, int]:
+    """The one seed formula (A-TRAINING-REALIZATIONS, RES-TRAINING-SEEDS): base + offset + 100·seed + 10·stage + r.
+
+    The trainer calls it with its configured bases and offset (T-CURRICULUM); the environment's
+    training split through :func:`training_seeds`, with the paper's.
+    """
+    tail = offset + 100 * seed + 10 * stage + r
+    return generation_base + tail, execution_base + tail
+
+
 def training_seeds(family: str, seed: int, stage: int = 0, r: int = 0) -> tuple[int, int]:
     """(generation seed, execution seed) of training realization ``r`` of algorithm seed ``seed``."""
     _check("seed", seed, MAX_SEED)
     _check("stage", stage, MAX_STAGE)
     _check("realization", r, REALIZATIONS - 1)
-    tail = family_offset(family) + 100 * seed + 10 * stage + r
-    return GENERATION_BASE + tail, EXECUTION_BASE + tail
+    return seed_pair(family_offset(family), seed, stage, r)
 
 
 def training_instance(bundle: tuple[Mapping[str, Any], Mapping[str, Any], Mapping[str, Any]], seed: int,

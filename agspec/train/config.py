@@ -17,12 +17,13 @@ from typing import Any, Mapping
 
 import yaml
 
+from agspec.marl.curriculum import EXECUTION_BASE, FAMILY_SEED_OFFSET, GENERATION_BASE
+
 CONFIG_SCHEMA = "agspec-training-config/1"
 ALGORITHMS = ("ippo", "mappo", "qmix")
 PAPER_BUDGET = 1_536_000
 
 # T-CURRICULUM, RES-TRAINING-SEEDS: the original's run-specific realization seeds
-FAMILY_OFFSET = {"coalition": 0, "flow": 300_000, "concurrency": 600_000}
 
 # tab:marlconfig rows shared by the three methods
 _COMMON: dict[str, Any] = {
@@ -39,9 +40,9 @@ _COMMON: dict[str, Any] = {
         "realizations": 5,
         "indices": [0, 1, 2, 3, 4],
         "stage": 0,  # RES-CURRICULUM-STAGE
-        "generation_seed_base": 80_000,
-        "execution_seed_base": 90_000,
-        "family_offset": None,  # resolved from the scenario's family (FAMILY_OFFSET)
+        "generation_seed_base": GENERATION_BASE,
+        "execution_seed_base": EXECUTION_BASE,
+        "family_offset": None,  # resolved from the scenario's family (FAMILY_SEED_OFFSET)
     },
     # "Initialization": random weights; no demonstrations, behavior cloning, or pretraining
     "initialization": "random",
@@ -261,7 +262,7 @@ def resolve(algorithm: str, scenario: str, seed: int, family: str | None,
     config = paper_defaults(algorithm)
     config.update(scenario=str(scenario), seed=seed)
     # RES-TRAINING-SEEDS: the family offset of the three official families; any other family takes 0
-    config["curriculum"]["family_offset"] = FAMILY_OFFSET.get(family or "", 0)
+    config["curriculum"]["family_offset"] = FAMILY_SEED_OFFSET.get(family or "", 0)
     config["reward"]["support_credit"] = ALGORITHM_TABLE[algorithm]["reward"]["support_credit"]
     for fixed in ("algorithm", "scenario", "seed", "schema"):
         if fixed in (overrides or {}):

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from agspec.ir.fingerprint import fingerprint
+from agspec.marl.curriculum import seed_pair
 
 
 @dataclass(frozen=True)
@@ -29,8 +30,8 @@ class Block:
 def realization_seeds(config: Mapping[str, Any], r: int) -> tuple[int, int]:
     """RES-TRAINING-SEEDS: (base + family offset + 100·seed + 10·stage + r) for generation and execution."""
     c = config["curriculum"]
-    offset = c["family_offset"] + 100 * config["seed"] + 10 * c["stage"] + r
-    return c["generation_seed_base"] + offset, c["execution_seed_base"] + offset
+    return seed_pair(c["family_offset"], config["seed"], c["stage"], r, c["generation_seed_base"],
+                     c["execution_seed_base"])
 
 
 def plan(config: Mapping[str, Any]) -> list[Block]:
