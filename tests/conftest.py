@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 
+import pytest
+
 
 def pytest_configure(config) -> None:
     # F-GOLDEN: conform runs in tests are live unless a test names its own cache directory — a
@@ -14,3 +16,18 @@ def pytest_configure(config) -> None:
     # validated against its schema as it is written (in this process and in every agspec process a
     # test starts), and a violation fails the test (SchemaDrift), so no field or category drifts
     os.environ["AGSPEC_SELF_CHECK"] = "1"
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """The extended tests (README, "Tests"): `ray` starts a local Ray cluster, `browser` drives Chromium.
+
+    The README's `pytest -q` leaves them out (pyproject addopts); `.ci/run` runs them after it. A test
+    is marked by what it uses, so a new one is classed without a decorator: the `browser` or
+    `ray_session` fixture, or a parameter whose id names the Ray executor (`ray`, `ray-j2`).
+    """
+    for item in items:
+        if "browser" in item.fixturenames:
+            item.add_marker(pytest.mark.browser)
+        callspec = getattr(item, "callspec", None)
+        if "ray_session" in item.fixturenames or (callspec is not None and "ray" in callspec.id.split("-")):
+            item.add_marker(pytest.mark.ray)

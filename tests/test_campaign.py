@@ -19,7 +19,6 @@ import pytest
 import campaign_tasks as T
 from agspec.campaign.executor import Done, ExecutorSpec, Failed, Task, dispatch_order, run_ordered
 
-ray = pytest.importorskip("ray")
 TESTS = Path(__file__).parent
 
 EXECUTORS = [ExecutorSpec("local", 1), ExecutorSpec("local", 2), ExecutorSpec("local", 3, dispatch_seed=7),
@@ -30,6 +29,7 @@ IDS = ["local-j1", "local-j2", "local-j3-scrambled", "ray-j2", "ray-j2-scrambled
 @pytest.fixture(scope="module")
 def ray_session():
     """One local Ray for the module (the backends reuse a Ray they did not start and leave it up)."""
+    ray = pytest.importorskip("ray")
     ray.cloudpickle.register_pickle_by_value(T)  # the workers cannot import the tests directory
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
     yield
@@ -154,6 +154,7 @@ def _without_timing(doc):
     return doc
 
 
+@pytest.mark.ray
 def test_evaluate_output_and_bundle_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, RES-CAMP-TIMING
     outputs, bundles = [], []
     for n, extra in enumerate(CAMPAIGN_RUNS):
@@ -170,6 +171,7 @@ def test_evaluate_output_and_bundle_are_the_same_on_every_executor(tmp_path):  #
     assert all(r["status"] == "ok" for r in runs)
 
 
+@pytest.mark.ray
 def test_conform_report_and_summary_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, CAMP-ORDER
     outputs, reports = [], []
     for n, extra in enumerate(CAMPAIGN_RUNS[:3]):
@@ -209,6 +211,7 @@ def test_a_failed_episode_is_reported_and_left_out_of_the_means():  # CAMP-FAULT
     assert [s["delivered"]["n"] for s in summarize(runs)] == [1, 0]  # the failed episode has no value
 
 
+@pytest.mark.ray
 def test_check_over_a_directory_is_identical_on_every_executor(tmp_path):  # CAMP-ORDER, CAMP-IDENTICAL
     traces = tmp_path / "traces"
     traces.mkdir()
@@ -264,6 +267,7 @@ def _diff(*extra: str, cwd: Path, env: dict[str, str] | None = None) -> subproce
     return subprocess.run(args, capture_output=True, text=True, cwd=cwd, timeout=600, env=env)
 
 
+@pytest.mark.ray
 def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path):  # CAMP-IDENTICAL, RES-CAMP-DIFF
     mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
     outputs, saved = [], []
@@ -285,6 +289,7 @@ def test_diff_report_and_counterexamples_are_the_same_on_every_executor(tmp_path
     assert len([name for name in saved[0] if name.endswith(".yaml")]) == len(report["findings"])
 
 
+@pytest.mark.ray
 def test_diff_stops_at_the_first_divergent_instance_on_every_executor(tmp_path):  # CAMP-ORDER, RES-CAMP-DIFF
     mutant = f"{sys.executable} {MUTANTS / 'sim.py'} --mutant deliver-early"
     outputs = []

@@ -122,7 +122,8 @@ def _params(slow: bool):
     for doc in DOCS:
         blocks = extract(doc.read_text(encoding="utf-8"))
         if any(b.commands or (b.lang == "python" and not b.file) for b in blocks if b.slow == slow and not b.skip):
-            out.append(pytest.param(doc, id=doc.name))
+            ray = any("--executor ray" in c for b in blocks if not b.skip for c, _ in b.commands)
+            out.append(pytest.param(doc, id=doc.name, marks=[pytest.mark.ray] if ray else []))
     return out
 
 

@@ -51,6 +51,7 @@ def test_bad_plans_are_refused_before_anything_runs(plan, match):
         check_plan(plan)
 
 
+@pytest.mark.ray
 def test_local_and_ray_campaigns_write_the_same_bytes_and_resume(tmp_path):  # CAMP-IDENTICAL, T-CAMPAIGN
     records = campaign(tmp_path / "local", ExecutorSpec("local", 2))
     assert [r["run"] for r in records] == ["ippo-flow-easy-s0", "qmix-flow-easy-s0"]
