@@ -36,7 +36,7 @@ def test_the_paper_plan_is_the_paper_campaign():
     runs = items(plan, Path("c"))
     assert len(runs) == 270 and len({r.run_dir for r in runs}) == 270
     assert plan["evaluation"]["indices"] == list(range(1000, 1050))
-    assert dict(runs[0].settings) == {"runtime.threads": 1}  # the table's settings, one thread per run
+    assert dict(runs[0].settings) == {"runtime.threads": 1}  # RES-CAMPAIGN-THREADS: one thread per run
 
 
 @pytest.mark.parametrize("plan, match", [
