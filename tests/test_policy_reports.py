@@ -104,7 +104,7 @@ def check_common(text: str, truth: dict) -> None:
         assert "training seeds" in text
 
 
-def check_refused(res, truth: dict, output: str) -> None:
+def check_refused(res, truth: dict, output: str) -> None:  # RES-INCOMPLETE-REFUSED, F-POLICY-COVERAGE
     assert res.exit_code == 1, res.output
     assert output == "" or "±" not in output and "Method" not in output, "a refused table printed numbers"
     for (label, scenario), (planned, ok) in incomplete_cells(truth).items():
