@@ -79,7 +79,7 @@ def test_items_ids_markers_and_episodes(project):
     lines = [ln for ln in ids.stdout.lines if ln.startswith("c-")]
     handoff_cases = [c for c in load_suite() if "R-HANDOFF" in c.rules]
     assert sorted(lines) == sorted(c.id for c in handoff_cases)  # node id = case id, one marker per rule ID
-    episode = project.runpytest(*LOAD, "--agspec-impl", sim(), "--agspec-episodes", "1", "--agspec-ticks", "3",
+    episode = project.runpytest(*LOAD, "--agspec-impl", sim(), "--agspec-episodes", "1", "--agspec-horizon", "3",
                                 "-k", "e-flow-easy", "-p", "no:cacheprovider", "-v")
     episode.assert_outcomes(passed=1)
     assert "e-flow-easy-greedy PASSED" in episode.stdout.str()
@@ -157,7 +157,7 @@ def test_a_vacuous_session_exits_3_and_the_level_is_stated(project):
     """F-CONFORM-LEVELS in the plugin: the level proven is printed, and a session that compared nothing fails."""
     project.makepyfile(blind=BLIND)
     blind = project.runpytest(*LOAD, "--agspec-impl", f"python:{project.path / 'blind.py'}:Blind",
-                              "--agspec-episodes", "1", "--agspec-ticks", "3", "-k", "e-flow-easy-greedy",
+                              "--agspec-episodes", "1", "--agspec-horizon", "3", "-k", "e-flow-easy-greedy",
                               "-p", "no:cacheprovider")
     assert blind.ret == 3
     blind.stdout.fnmatch_lines(["*agspec: level proven none*VACUOUS*"])

@@ -5,13 +5,14 @@ their own test suite::
 
     pytest --agspec-impl "./my_sim --agspec"                 # every suite case + catalogue episodes
     pytest --agspec-impl python:my_sim.adapter:make -k R-HANDOFF
-    pytest --agspec-impl "./my_sim" --agspec-expect known-gaps.yaml --agspec-ticks 20 -m INV-CONSERVATION
+    pytest --agspec-impl "./my_sim" --agspec-expect known-gaps.yaml --agspec-horizon 20 -m INV-CONSERVATION
 
 Options (group "agspec"):
 
 ``--agspec-impl SPEC``      the implementation (``reference``, ``python:pkg.module:factory`` or a command
                             line, as ``agspec conform --impl``); without it the plugin does nothing;
-``--agspec-ticks T``        ticks per catalogue episode (default: the whole horizon, as ``agspec conform``);
+``--agspec-horizon T``      ticks per catalogue episode (default: the whole horizon, as ``agspec conform``;
+                            earlier spelling ``--agspec-ticks``);
 ``--agspec-episodes N``     lockstep episodes per catalogue scenario (greedy, then seeded random; default
                             2 as ``agspec conform --episodes``, 0 = suite cases only);
 ``--agspec-expect FILE``    expected failures (F-EXPECT): a listed case that fails as listed is xfailed,
@@ -45,8 +46,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--agspec-impl", metavar="SPEC", default=None,
                     help="run the agspec conformance suite against SPEC: reference, python:pkg.module:factory or "
                          "a command line speaking agspec-protocol/1")
-    group.addoption("--agspec-ticks", metavar="T", type=int, default=None,
-                    help="ticks per catalogue episode (default: the whole horizon, as agspec conform)")
+    # docs/cli.md: --horizon as in agspec conform; the earlier spelling --agspec-ticks is still accepted
+    group.addoption("--agspec-horizon", "--agspec-ticks", dest="agspec_horizon", metavar="T", type=int, default=None,
+                    help="ticks per catalogue episode (default: the whole horizon, as agspec conform --horizon)")
     group.addoption("--agspec-episodes", metavar="N", type=int, default=2,
                     help="lockstep catalogue episodes per catalogue scenario: greedy plus N-1 seeded random "
                          "(default 2, as agspec conform; 0: suite cases only)")
@@ -107,7 +109,7 @@ class _State:
             return
         self.items = [from_case(c) for c in cases]
         episodes = max(0, int(cfg.getoption("agspec_episodes")))
-        ticks = cfg.getoption("agspec_ticks")
+        ticks = cfg.getoption("agspec_horizon")
         ticks = None if ticks is None else max(1, int(ticks))
         self.items += catalogue_episodes(episodes, ticks)
         path = cfg.getoption("agspec_expect")
