@@ -22,19 +22,15 @@ tiny (a smoke run of the recipe), so the numbers say that it runs, not what it l
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import supersuit as ss
 import torch
 from sb3_contrib import MaskablePPO
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
+import recipe_common
 from agspec.pettingzoo import coalition_milestone_v1, parallel_env
 
 HERE = Path(__file__).resolve().parent
@@ -96,42 +92,9 @@ def train(args: argparse.Namespace) -> dict:
 
 
 def evaluate(args: argparse.Namespace) -> dict:
-    """agspec evaluate on validation 200–204: the trained policy beside the random masked reference."""
-    env = dict(os.environ, AGSPEC_SB3_MODEL=str(args.out / "model.zip"))
-    cmd = [sys.executable, "-m", "agspec.cli.main", "evaluate", "--policy",
-           f"{HERE / 'recipe_sb3_policy.py'}:make_policy", "--name", "sb3-maskable-ppo", "--controller", "random",
-           "--scenario", args.scenario, "--split", "validation", "--indices", args.eval_indices, "--repeat", "0",
-           "--metric", "delivered",
-           "-j", str(args.jobs), "-o", str(args.out / "validation.json")]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    print(proc.stdout, end="")
-    if proc.returncode:
-        print(proc.stderr, end="", file=sys.stderr)
-    bundle = json.loads((args.out / "validation.json").read_text())
-    per = {}
-    for ep in bundle["episodes"]:
-        if ep["status"] == "ok":
-            per.setdefault(ep["controller"], []).append(ep["metrics"]["delivered"])
-    return {"exit": proc.returncode, **{f"delivered_{k}": round(float(np.mean(v)), 2) for k, v in per.items()}}
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", default="flow-easy")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--env-steps", type=int, default=2000, help="training budget in env steps (all robots act)")
-    ap.add_argument("--copies", type=int, default=1, help="environment copies stepped together")
-    ap.add_argument("--rollout", type=int, default=400, help="env steps per PPO rollout (over all copies)")
-    ap.add_argument("--max-cycles", type=int, default=None, help="shorter training episodes (smoke runs)")
-    ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
-    ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
-    ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
-    ap.add_argument("-o", "--output", dest="out", type=Path, default=Path("runs/sb3"))
-    args = ap.parse_args()
-    result = {**train(args), **evaluate(args)}
-    print(json.dumps(result))
-    raise SystemExit(result["exit"])
+    return recipe_common.evaluate(args, HERE / "recipe_sb3_policy.py", "sb3-maskable-ppo",
+                                  {"AGSPEC_SB3_MODEL": str(args.out / "model.zip")})
 
 
 if __name__ == "__main__":
-    main()
+    recipe_common.main(recipe_common.parser(__doc__.splitlines()[0], "runs/sb3", copies=True), train, evaluate)

@@ -25,14 +25,10 @@ tiny (a smoke run of the recipe), so the numbers say that it runs, not what it l
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import torch
 from tensordict.nn import TensorDictModule
 from torch import nn
@@ -47,6 +43,7 @@ from agspec.pettingzoo import coalition_milestone_v1, parallel_env
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import recipe_common  # noqa: E402
 from recipe_torchrl_policy import actor_network  # noqa: E402  (the one definition of the actor)
 
 GROUP = "robots"
@@ -105,39 +102,9 @@ def train(args: argparse.Namespace) -> dict:
 
 
 def evaluate(args: argparse.Namespace) -> dict:
-    env = dict(os.environ, AGSPEC_TORCHRL_ACTOR=str(args.out / "actor.pt"))
-    cmd = [sys.executable, "-m", "agspec.cli.main", "evaluate", "--policy",
-           f"{HERE / 'recipe_torchrl_policy.py'}:make_policy", "--name", "torchrl-ippo", "--controller", "random",
-           "--scenario", args.scenario, "--split", "validation", "--indices", args.eval_indices, "--repeat", "0",
-           "--metric", "delivered", "-j", str(args.jobs), "-o", str(args.out / "validation.json")]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    print(proc.stdout, end="")
-    if proc.returncode:
-        print(proc.stderr, end="", file=sys.stderr)
-    bundle = json.loads((args.out / "validation.json").read_text())
-    per: dict[str, list[float]] = {}
-    for ep in bundle["episodes"]:
-        if ep["status"] == "ok":
-            per.setdefault(ep["controller"], []).append(ep["metrics"]["delivered"])
-    return {"exit": proc.returncode, **{f"delivered_{k}": round(float(np.mean(v)), 2) for k, v in per.items()}}
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", default="flow-easy")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--env-steps", type=int, default=2000, help="training budget in env steps (all robots act)")
-    ap.add_argument("--rollout", type=int, default=400, help="env steps per PPO rollout")
-    ap.add_argument("--max-cycles", type=int, default=None, help="shorter training episodes (smoke runs)")
-    ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
-    ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
-    ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
-    ap.add_argument("-o", "--output", dest="out", type=Path, default=Path("runs/torchrl"))
-    args = ap.parse_args()
-    result = {**train(args), **evaluate(args)}
-    print(json.dumps(result))
-    raise SystemExit(result["exit"])
+    return recipe_common.evaluate(args, HERE / "recipe_torchrl_policy.py", "torchrl-ippo",
+                                  {"AGSPEC_TORCHRL_ACTOR": str(args.out / "actor.pt")})
 
 
 if __name__ == "__main__":
-    main()
+    recipe_common.main(recipe_common.parser(__doc__.splitlines()[0], "runs/torchrl"), train, evaluate)
