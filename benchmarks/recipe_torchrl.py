@@ -32,7 +32,10 @@ from pathlib import Path
 import torch
 from tensordict.nn import TensorDictModule
 from torch import nn
-from torchrl.collectors import SyncDataCollector
+try:  # TorchRL 0.14 renamed the single-process collector
+    from torchrl.collectors import Collector as SyncDataCollector
+except ImportError:
+    from torchrl.collectors import SyncDataCollector
 from torchrl.data import LazyTensorStorage, ReplayBuffer, SamplerWithoutReplacement
 from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
