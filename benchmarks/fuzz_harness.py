@@ -40,8 +40,8 @@ from click.testing import CliRunner  # noqa: E402
 from agspec.cli.main import cli  # noqa: E402
 from agspec.conform import runner  # noqa: E402
 from agspec.conform.impl import SubprocessImpl  # noqa: E402
-from agspec.conform.items import catalogue_episodes  # noqa: E402
 from scoping_cases import NAMES, scripted, small_items  # noqa: E402
+from teardown_cases import DAEMONS, ENDS, run_case, tagged_processes  # noqa: E402
 
 MODES = (None, ("load", "error:invalid_instance"), ("reset", "error:bad_seed"), ("load", "crash"),
          ("step", "crash"), ("step", "garbage"))
@@ -58,7 +58,7 @@ def scoping() -> tuple[int, list[str]]:
         finally:
             impl.close()
         for result, outcome in summary.results:
-            name, mode = result.item.title, plan.get(result.item.title)
+            mode = plan.get(result.item.title)
             earlier = int(result.item.id.rsplit("-", 1)[1])
             code = (result.failure or {}).get("code")
             if mode is None and outcome != "pass":
@@ -73,34 +73,14 @@ def scoping() -> tuple[int, list[str]]:
     return tried, wrong
 
 
-def _alive(tag: str) -> list[int]:
-    out = []
-    for proc in Path("/proc").iterdir():
-        if proc.name.isdigit():
-            try:
-                if tag.encode() in (proc / "cmdline").read_bytes():
-                    out.append(int(proc.name))
-            except OSError:
-                pass
-    return out
-
-
 def teardown() -> tuple[int, list[str]]:
     tried, wrong = 0, []
-    for daemon, end in itertools.product(("session", "stdout", "stderr", "group"), ("stop", "crash", "hang")):
+    for daemon, end in itertools.product(DAEMONS, ENDS):
         tried += 1
         tag = f"fuzz-teardown-{daemon}-{end}-{os.getpid()}"
-        fail = {"": {"cmd": "step", "mode": end, "at": 1}} if end != "stop" else {}
-        spec = scripted("--daemon", daemon, "--fail", json.dumps(fail), "--tag", tag)
-        t0 = time.monotonic()
-        impl = SubprocessImpl(spec, 2.0)
-        try:
-            runner.run(catalogue_episodes(1, 3, ["flow-easy"]), spec, impl=impl, replays=0)
-        finally:
-            impl.close()
-        seconds = time.monotonic() - t0
+        seconds, _ = run_case(daemon, end, tag)
         time.sleep(1.0)
-        left = _alive(tag)
+        left = tagged_processes(tag)
         if seconds > 30 or left:
             wrong.append(f"{daemon}/{end}: {seconds:.1f} s, left {left}")
         print(f"teardown {daemon}/{end}: {seconds:.1f} s, left {len(left)}", file=sys.stderr, flush=True)

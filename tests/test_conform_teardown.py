@@ -19,32 +19,17 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from teardown_cases import run_case, tagged_processes
 
 from agspec.cli.main import cli
-from agspec.conform import runner
-from agspec.conform.impl import SubprocessImpl
-from agspec.conform.items import catalogue_episodes
 
 HERE = Path(__file__).resolve().parent
 SIM = HERE / "fakes" / "scripted_sim.py"
 BOUND_S = 30.0  # far below the 600 s a left-behind process lives; the teardown itself takes < 1 s
 
 
-def _sims(tag: str) -> list[int]:
-    """Processes whose command line carries ``tag`` (a left-behind daemon is a fork of the simulator)."""
-    out = []
-    for proc in Path("/proc").iterdir():
-        if proc.name.isdigit():
-            try:
-                if tag.encode() in (proc / "cmdline").read_bytes():
-                    out.append(int(proc.name))
-            except OSError:
-                pass
-    return out
-
-
 # (how the daemon holds the pipes, how the session ends): each holder and each end at least once here;
-# benchmarks/fuzz_harness.py runs the whole product
+# benchmarks/fuzz_harness.py runs the whole product (teardown_cases.DAEMONS x ENDS)
 CASES = [("session", "stop"), ("session", "hang"), ("stdout", "crash"), ("stderr", "hang"), ("group", "crash"),
          ("stderr", "stop")]
 
@@ -52,23 +37,13 @@ CASES = [("session", "stop"), ("session", "hang"), ("stdout", "crash"), ("stderr
 @pytest.mark.parametrize("daemon, end", CASES)
 def test_a_simulator_that_leaves_a_process_holding_its_pipes_is_torn_down_in_bounded_time(daemon, end, tmp_path):
     tag = f"teardown-{daemon}-{end}-{os.getpid()}"
-    fail = {"": {"cmd": "step", "mode": end, "at": 1}} if end != "stop" else {}
-    spec = shlex.join([sys.executable, str(SIM), "--daemon", daemon, "--fail", json.dumps(fail), "--tag", tag])
-    items = catalogue_episodes(1, 3, ["flow-easy"])
-    t0 = time.monotonic()
-    impl = SubprocessImpl(spec, 2.0)
-    try:
-        summary = runner.run(items, spec, impl=impl, replays=0)
-    finally:
-        impl.close()
-    seconds = time.monotonic() - t0
+    seconds, outcome = run_case(daemon, end, tag)
     assert seconds < BOUND_S, seconds
-    outcome = summary.results[0][1]
     assert outcome == ("pass" if end == "stop" else "error")
     deadline = time.monotonic() + 5
-    while _sims(tag) and time.monotonic() < deadline:
+    while tagged_processes(tag) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert _sims(tag) == []  # the simulator and what it left behind are gone
+    assert tagged_processes(tag) == []  # the simulator and what it left behind are gone
 
 
 def test_a_simulator_that_kills_its_worker_is_blamed(tmp_path, monkeypatch):

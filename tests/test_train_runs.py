@@ -13,35 +13,14 @@ from click.testing import CliRunner
 torch = pytest.importorskip("torch", reason="the trainer needs PyTorch: pip install 'agspec[train]'")
 torch.set_num_threads(1)  # tiny networks: one thread is fastest, and T-DETERMINISM fixes the thread count
 
+from train_cuts import short_scenario, tiny  # noqa: E402  (the tiny budgets the resume generator uses)
+
 from agspec.cli.main import cli  # noqa: E402
 from agspec.formats.schemas import validator  # noqa: E402
-from agspec.train.api import is_complete, load_policy, read_summary, resolve_config, train  # noqa: E402
+from agspec.train.api import is_complete, load_policy, read_summary, train  # noqa: E402
 from agspec.train.record import read_record, without_wall_time  # noqa: E402
 
 SCENARIO = "flow-easy"  # 20 robots: the smallest official grid
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def short_scenario(tmp_path: Path) -> str:
-    """flow-easy with a 4-tick horizon, so that 4-step updates end exactly at episode starts."""
-    text = (ROOT / "catalogue" / "scenarios" / "flow-easy.ag").read_text()
-    text = text.replace('"../', f'"{ROOT}/catalogue/').replace("scenario flow-easy", "scenario flow-short")
-    text = text.replace("horizon 400", "horizon 4").replace("suite official", "suite unofficial")
-    path = tmp_path / "flow-short.ag"
-    path.write_text(text)
-    return str(path)
-
-
-def tiny(algorithm: str, seed: int = 0, scenario: str = SCENARIO, **extra):
-    """A budget of a few ticks: 8 steps per block, 8-step updates, no validation unless asked."""
-    overrides = {"budget.env_steps": 40, "record.every_steps": 8, "validation.indices": [], "runtime.threads": 1}
-    if algorithm == "qmix":
-        overrides.update({"replay.capacity": 64, "warmup.replay_transitions": 8, "replay.target_sync_every": 8})
-    else:
-        overrides.update({"ppo.steps_per_update": 8, "ppo.minibatch": 64, "warmup.critic_steps": 8,
-                          "checkpoint.every_steps": 8})
-    overrides.update(extra)
-    return resolve_config(algorithm, scenario, seed, overrides)
 
 
 def policy_sha(out: Path) -> str:

@@ -63,8 +63,13 @@ class PolicySpec:
         return out
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes (a policy's module or script, a checkpoint), read in chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
 
 
 def parse_policy(text: str, label: str | None = None, version: str | None = None) -> PolicySpec:
@@ -84,7 +89,7 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
             if not path.is_file():
                 raise PolicySpecError(f"--policy {text}: no file {module}")
             return PolicySpec("python", f"{path.resolve()}:{m.group('attr')}", label or path.stem, version,
-                              _sha256(path))
+                              file_sha256(path))
         return PolicySpec("python", text, label or m.group("attr"), version, _module_digest(module))
     try:
         argv = shlex.split(text)
@@ -92,13 +97,13 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
         raise PolicySpecError(f"--policy {text!r}: {exc}") from None
     script = next((Path(a) for a in argv[1:] if Path(a).suffix and Path(a).is_file()), None)
     return PolicySpec("command", text, label or (script.stem if script is not None else Path(argv[0]).name), version,
-                      _sha256(script) if script is not None else None)
+                      file_sha256(script) if script is not None else None)
 
 
 def checkpoint_policy(run_dir: Path, label: str | None = None, version: str | None = None) -> PolicySpec:
     """F-POLICY-CHECKPOINT: a finished ``agspec train`` run directory; its identity is the policy file's
     SHA-256 with the run's algorithm, scenario, seed, steps and configuration digest."""
-    from agspec.train.rundir import POLICY, RunDirError, read_summary, sha256_file
+    from agspec.train.rundir import POLICY, RunDirError, read_summary
 
     try:
         summary = read_summary(run_dir)
@@ -108,7 +113,7 @@ def checkpoint_policy(run_dir: Path, label: str | None = None, version: str | No
     if summary.get("status") != "complete" or not policy_file.is_file():
         raise PolicySpecError(f"--policy {run_dir}: the training run is not complete (status "
                               f"{summary.get('status')!r}); finish it with agspec train --resume")
-    digest = sha256_file(policy_file)
+    digest = file_sha256(policy_file)
     if digest != (summary.get("policy") or {}).get("sha256"):
         raise PolicySpecError(f"--policy {run_dir}: {POLICY} does not match the digest its run.json records")
     training = (("algorithm", summary["algorithm"]), ("scenario", summary["scenario"]), ("seed", summary["seed"]),
@@ -128,7 +133,7 @@ def _module_digest(module: str) -> str | None:
     if spec is None:
         raise PolicySpecError(f"--policy {module}: no module named {module!r}")
     origin = Path(spec.origin) if spec.origin and spec.origin not in ("built-in", "frozen") else None
-    return _sha256(origin) if origin is not None and origin.is_file() else None
+    return file_sha256(origin) if origin is not None and origin.is_file() else None
 
 
 @lru_cache(maxsize=8)

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 import agspec
+from agspec.policy.contract import file_sha256
 from agspec.train import config as cfg
 from agspec.train import curriculum, rundir
 from agspec.train.checkpoint import load_checkpoint, save_checkpoint, save_policy
@@ -110,7 +111,7 @@ class Run:
                "device": str(self.device), "runtime": dict(c["runtime"]), "versions": versions(), "resumed": self.position["resumed"],
                "wall_time_s": self.elapsed(), "validation": self.position["validation"], "policy": None}
         if status == "complete":
-            out["policy"] = {"path": rundir.POLICY, "sha256": rundir.sha256_file(self.out / rundir.POLICY)}
+            out["policy"] = {"path": rundir.POLICY, "sha256": file_sha256(self.out / rundir.POLICY)}
         return out
 
     def write_summary(self, status: str) -> dict[str, Any]:

@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import hashlib
 import json
 import os
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 from agspec.formats.limits import InputError, load_json
+from agspec.policy.contract import file_sha256
 
 RUN_SCHEMA = "agspec-training-run/1"
 CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (
@@ -35,14 +35,6 @@ def replay_name(steps: int) -> str:
 
 class RunDirError(ValueError):
     """A run directory that cannot be used as asked (the message says why and what to do)."""
-
-
-def sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
@@ -78,7 +70,7 @@ def is_complete(out_dir: str | os.PathLike) -> bool:
         return False
     policy = summary.get("policy") or {}
     path = Path(out_dir) / POLICY
-    return summary.get("status") == "complete" and path.is_file() and policy.get("sha256") == sha256_file(path)
+    return summary.get("status") == "complete" and path.is_file() and policy.get("sha256") == file_sha256(path)
 
 
 def refuse_foreign(out_dir: Path) -> None:
