@@ -4,11 +4,13 @@ concept, one name with two types, an unregistered option or a stale alias fails 
 from __future__ import annotations
 
 from collections import defaultdict
+from pathlib import Path
 
 import click
 import pytest
 from click.testing import CliRunner
 
+from agspec.cli import run_cmds
 from agspec.cli.examples import all_commands
 from agspec.cli.grammar import CONCEPTS, RENAMED, rewrite
 from agspec.cli.main import cli
@@ -33,7 +35,7 @@ def _type_key(option: click.Option) -> tuple:
     return (t.name, bounds, option.is_flag)
 
 
-def test_every_option_stands_for_a_registered_concept():  # docs/cli.md
+def test_every_option_stands_for_a_registered_concept():  # F-CLI-GRAMMAR, docs/cli.md
     unknown = sorted({f"{path}: {_long(o)}" for path, o in _options()
                       if _long(o) not in CONCEPTS and o.name != "help"})
     assert unknown == [], "register these in agspec/cli/grammar.py CONCEPTS (and docs/cli.md): " + ", ".join(unknown)
@@ -44,7 +46,7 @@ def test_every_registered_concept_is_an_option_of_some_command():
     assert sorted(set(CONCEPTS) - used) == []
 
 
-def test_no_two_names_share_a_concept():
+def test_no_two_names_share_a_concept():  # F-CLI-GRAMMAR
     by_concept = defaultdict(list)
     for name, concept in CONCEPTS.items():
         by_concept[concept].append(name)
@@ -89,7 +91,7 @@ CASES = [(path, rule) for rule in RENAMED for path in rule.commands if path in C
 
 
 @pytest.mark.parametrize("path, rule", CASES, ids=[f"{p}{r.old}" for p, r in CASES])
-def test_an_earlier_spelling_parses_as_the_new_one(path, rule):  # docs/cli.md, deprecated aliases
+def test_an_earlier_spelling_parses_as_the_new_one(path, rule):  # F-CLI-GRAMMAR, docs/cli.md, deprecated aliases
     old = [rule.old] if rule.flag else [rule.old, VALUES[rule.old]]
     rewritten, notes = rewrite(path, BASE[path] + old)
     assert notes and rule.new in notes[0]
@@ -113,3 +115,13 @@ def test_the_group_prints_a_deprecation_note_and_runs_the_command(tmp_path):
     assert result.exit_code == 0, result.output
     assert "`--seed 5` is now `--generation-seed 5`" in result.stderr
     assert '"generation": 5' in (tmp_path / "i.json").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("args, expected", [((), "paper-reproduction"), (("-o", "elsewhere"), "elsewhere"),
+                                            (("--out-dir", "old"), "old")])
+def test_evaluate_paper_never_writes_into_the_projects_docs_by_default(monkeypatch, args, expected):  # F-CLI-GRAMMAR
+    seen = []
+    monkeypatch.setattr(run_cmds, "_evaluate_paper", lambda campaign, out, fmt: seen.append(out))
+    res = CliRunner().invoke(cli, ["evaluate", "--paper", *args])
+    assert res.exit_code == 0, res.output
+    assert seen == [Path(expected)]
