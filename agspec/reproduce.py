@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.evaluate import evaluate, mean_ci
+from agspec.evaluate import evaluate
+from agspec.policy.stats import mean_ci
 from agspec.formats.schemas import self_check
 
 FINAL_TEST = range(1000, 1050)

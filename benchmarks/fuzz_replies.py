@@ -84,7 +84,7 @@ def _traces(n: int, rng: random.Random, shown: list[str]) -> tuple[int, int]:
 
     from click.testing import CliRunner
 
-    from agspec.campaign.check import check_file
+    from agspec.trace.check import check_file
     from agspec.cli.main import cli
     from reply_mutations import dump, respelt
 

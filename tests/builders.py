@@ -164,7 +164,7 @@ def make_test_instance(
 
 import io  # noqa: E402
 
-from agspec.conform.invariants import Report, check_trace, parse_trace_text  # noqa: E402
+from agspec.invariants import Report, check_trace, parse_trace_text  # noqa: E402
 from agspec.interp.model import DIRECTIONS  # noqa: E402
 from agspec.interp.observe import DELIVER, HANDOFF0, IDLE, OP0, PICK0, RECEIVE0  # noqa: E402
 from agspec.interp.snapshot import global_state  # noqa: E402

@@ -9,7 +9,7 @@ For one valid scenario (``strategies_scenarios.bundles``) :func:`check_bundle` c
 * **traces** — the reference runs under every reference controller (``agspec.evaluate.run_episode``,
   what ``agspec run`` uses) and under random actions of which a stated share is illegal (masked or
   out of range, R-ACTION-VALIDATION); each trace, with observations, is checked as
-  ``agspec check`` does (``agspec.campaign.check.check_file``: schema, every INV-*, record count,
+  ``agspec check`` does (``agspec.trace.check.check_file``: schema, every INV-*, record count,
   footer metrics recomputed);
 * **determinism** — optionally one controller run again in a fresh process through the CLI
   (``agspec run … --trace``) must write the same bytes (D-DETERMINISM).
@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from agspec.campaign.check import check_file
+from agspec.trace.check import check_file
 from agspec.controllers import CONTROLLERS
 from agspec.dsl.fmt import format_ir
 from agspec.evaluate import run_episode

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import report_edits as R
-from agspec.campaign.check import trace_diag
+from agspec.trace.check import trace_diag
 from agspec.conform import runner
 from agspec.conform.cases import load_suite
 from agspec.conform.compare import compare_reply, reply_name
@@ -316,7 +316,7 @@ def test_a_case_none_of_whose_assertions_is_declared_is_skipped_not_passed(tmp_p
 
 
 def test_expected_failure_entry_shape_matches_the_expectations_schema():
-    from agspec.conform.protocol import validate
+    from agspec.formats.schemas import validate
     from agspec.formats.limits import parse_yaml
 
     entry = parse_yaml(divergences.expect_entry("c-0123456789ab", "DIV-RELEASE-STOCK"))

@@ -128,7 +128,7 @@ def test_coverage_json():
     assert rho["spec"] == "PR-VARIANT" and rho["asserted"] and set(rho["asserted"]) <= set(rho["items"])
     assert all(f["tick"] >= -1 and f["where"] for f in rho["findings"].values())
     assert {e for e in cov["uncovered"] if not e.startswith("topology:")} == set()
-    from agspec.conform.invariants import INVARIANT_IDS
+    from agspec.invariants import INVARIANT_IDS
 
     assert set(INVARIANT_IDS) <= set(cov["invariants"])
     assert result.exit_code == (1 if cov["uncovered"] else 0)

@@ -24,7 +24,8 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform import protocol, runner
+from agspec.conform import runner
+from agspec.formats import protocol
 from agspec.conform.cases import load_suite
 from agspec.conform.impl import PythonImpl, SubprocessImpl
 from agspec.conform.items import catalogue_episodes, from_case

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from agspec.catalogue import OFFICIAL_SCENARIOS
-from agspec.conform.invariants import INVARIANT_IDS, check_trace
+from agspec.invariants import INVARIANT_IDS, check_trace
 from agspec.evaluate import run_episode
 from agspec.ir.instance import make_instance
 from agspec.formats.trace import TraceWriter

@@ -272,7 +272,7 @@ def test_a_failing_implementation_is_not_run_twice_through_the_matching_prefix(t
 def test_only_the_remembering_invariants_keep_memory_across_records(trace):
     """A resumed run skips every check of the known prefix but runs invariants.REMEMBERING on it: that
     is sound only if no other invariant keeps memory across records — and those listed do."""
-    from agspec.conform import invariants
+    from agspec import invariants
 
     records = [r for r in invariants.read_trace(trace) if r.get("type") in ("header", "tick")]
     ctx = invariants.Context.from_instance(records[0]["instance"])

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from agspec.conform import invariants as inv
-from agspec.conform.invariants import INVARIANT_IDS, check_trace, parse_trace_text
+from agspec import invariants as inv
+from agspec.invariants import INVARIANT_IDS, check_trace, parse_trace_text
 from agspec.evaluate import run_episode
 from agspec.ir.instance import make_instance
 from agspec.formats.trace import TraceWriter

@@ -224,7 +224,7 @@ def own_trace(m: registry.Mutant) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def invariant_results() -> dict[str, list[str]]:
-    from agspec.conform.invariants import check_trace
+    from agspec.invariants import check_trace
 
     out = {}
     for m in registry.MUTANTS.values():

@@ -18,7 +18,7 @@ stats = pytest.importorskip("scipy.stats", reason="the eval extra is not install
 
 from agspec.catalogue import CatalogueError, load_instance, parse_indices  # noqa: E402
 from agspec.cli.evaluate_view import nondeterminism  # noqa: E402
-from agspec.conform.protocol import validate  # noqa: E402
+from agspec.formats.schemas import validate  # noqa: E402
 from agspec.evaluate import Job, run_episode, run_job  # noqa: E402
 from agspec.policy import published  # noqa: E402
 from agspec.policy.bundle import BundleError, BundleWriter, combine, read_bundle  # noqa: E402

@@ -25,7 +25,7 @@ pytest.importorskip("scipy.stats", reason="the eval extra is not installed: pip 
 
 from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS, load_instance  # noqa: E402
 from agspec.cli.main import cli  # noqa: E402
-from agspec.conform.protocol import validate  # noqa: E402
+from agspec.formats.schemas import validate  # noqa: E402
 from agspec.evaluate import run_episode  # noqa: E402
 from agspec.policy.bundle import header  # noqa: E402
 from agspec.policy.coverage import describe_indices  # noqa: E402

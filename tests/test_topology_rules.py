@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from agspec.catalogue import load_instance
-from agspec.conform.invariants.context import Context
+from agspec.invariants.context import Context
 from agspec.conform.policies import ControllerPolicy
 from agspec.controllers import make_controller
 from agspec.controllers.base import grid_key, routes

@@ -93,7 +93,7 @@ def test_resume_equals_uncut(algorithm, cut_at, tmp_path):  # T-RESUME
 
     with pytest.raises(Cut):
         train(config, tmp_path / "cut", progress=cutter)
-    from agspec.train.checkpoint import load_checkpoint
+    from agspec.checkpoint.files import load_checkpoint
 
     position = load_checkpoint(tmp_path / "cut" / "checkpoint.pt")["position"]
     assert (position["block"], position["block_step"]) == ((2, 4) if algorithm == "ippo" else (2, 0))
@@ -186,7 +186,7 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
 def test_one_process_at_a_time_trains_into_a_run_directory(tmp_path):  # T-RUN-DIR
     import fcntl
 
-    from agspec.train.rundir import RunDirError
+    from agspec.checkpoint.rundir import RunDirError
 
     out = tmp_path / "run"
     out.mkdir()

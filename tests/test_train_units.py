@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 torch = pytest.importorskip("torch", reason="the trainer needs PyTorch: pip install 'agspec[train]'")
 torch.set_num_threads(1)  # small tensors: one thread is fastest and the machine is shared
 
-from agspec.train import nets  # noqa: E402
+from agspec.checkpoint import nets  # noqa: E402
 from agspec.train.api import resolve_config  # noqa: E402
 from agspec.train.ppo import actor_frozen, entropy_coefficient, explained_variance, gae  # noqa: E402
 from agspec.train.qmix import Replay, epsilon  # noqa: E402

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from agspec.campaign.check import check_file
+from agspec.trace.check import check_file
 from agspec.cli.main import cli
 from agspec.conform import runner
 from agspec.conform.lockstep import Options

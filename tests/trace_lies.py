@@ -22,7 +22,7 @@ import random
 from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
-from agspec.conform.invariants import check_trace
+from agspec.invariants import check_trace
 from agspec.formats.trace import TraceWriter, read_records
 from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state

@@ -17,105 +17,25 @@ from __future__ import annotations
 import random
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass
 from multiprocessing.util import Finalize
-from typing import Any, Callable, Iterator, Protocol, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
-EXECUTORS = ("local", "ray")
-DEFAULT_RETRIES = 2
-
-
-@dataclass(frozen=True)
-class ExecutorSpec:
-    """How a campaign runs (CAMP-EXECUTOR): ``kind`` local or ray; ``jobs`` workers (None: 1 locally,
-    every CPU of the Ray cluster); ``address`` of a Ray cluster (None: a local Ray started for the
-    run; ``auto``; ``ray://host:port``); ``retries`` per item whose worker dies; ``dispatch_seed``
-    shuffles the dispatch order (the results are identical, CAMP-ORDER); ``runtime_env`` for Ray;
-    ``gpus`` per Ray worker (CAMP-GPU)."""
-
-    kind: str = "local"
-    jobs: int | None = None
-    address: str | None = None
-    retries: int = DEFAULT_RETRIES
-    dispatch_seed: int | None = None
-    runtime_env: dict[str, Any] | None = None
-    gpus: float = 0.0  # with Ray: GPUs each worker holds (a fraction shares one); local workers ignore it
+from agspec.campaign.task import (
+    DEFAULT_RETRIES,
+    EXECUTORS,
+    Backend,
+    Done,
+    Event,
+    ExecutorError,
+    ExecutorSpec,
+    Failed,
+    Outcome,
+    Task,
+    describe,
+)
 
 
-@dataclass(frozen=True)
-class Task:
-    """The unit of work: ``fn(context, item)`` where ``context`` is ``init(shared)`` (or ``shared``),
-    made once per worker.  ``shared`` is shipped once per run (CAMP-SHIP-ONCE); ``fn`` and ``init``
-    are module-level functions (they travel by reference); ``close(context)`` runs when a worker
-    stops (e.g. it stops the worker's simulator process)."""
-
-    fn: Callable[[Any, Any], Any]
-    shared: Any = None
-    init: Callable[[Any], Any] | None = None
-    close: Callable[[Any], None] | None = None
-
-    def context(self) -> Any:
-        return self.init(self.shared) if self.init is not None else self.shared
-
-
-@dataclass(frozen=True)
-class Done:
-    value: Any
-
-
-@dataclass(frozen=True)
-class Failed:
-    """An item that produced no result: ``cause`` says why, ``attempts`` how often it was dispatched,
-    ``worker_died`` whether the worker died (else the task raised)."""
-
-    cause: str
-    attempts: int
-    worker_died: bool
-
-    def message(self) -> str:
-        if self.worker_died:
-            return f"the worker died {self.attempts} time(s) running it: {self.cause}"
-        return f"it raised {self.cause}"
-
-
-Outcome = Done | Failed
-
-
-class ExecutorError(Exception):
-    """The executor could not start (Ray missing or unreachable): a usage/I-O problem of the run."""
-
-
-# --------------------------------------------------------------------------- backends
-
-
-@dataclass(frozen=True)
-class Event:
-    """What a backend reports about one dispatched item: ``kind`` is ``ok``, ``raised`` or ``died``;
-    ``proven`` is False when a death cannot be blamed on this item alone (the local pool breaks for
-    every item in flight), so the driver re-runs it alone before counting the attempt."""
-
-    index: int
-    kind: str
-    payload: Any
-    proven: bool = True
-
-
-class Backend(Protocol):
-    def free(self) -> int: ...
-
-    def busy(self) -> int: ...
-
-    def submit(self, index: int, item: Any) -> None: ...
-
-    def wait(self) -> list[Event]: ...
-
-    def close(self, cancel: bool) -> None: ...
-
-
-def describe(exc: BaseException) -> str:
-    """One line naming an exception (the cause reported for a failed item)."""
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+# --------------------------------------------------------------------------- local backends
 
 
 class InlineBackend:

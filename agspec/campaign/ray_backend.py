@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from agspec.campaign.executor import Event, ExecutorError, ExecutorSpec, Task, describe
+from agspec.campaign.task import Event, ExecutorError, ExecutorSpec, Task, describe
 
 try:
     import ray

@@ -15,7 +15,7 @@ from typing import Any, Sequence
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from agspec.campaign.check import EXIT_HARNESS, check_file, exit_code, expand
+from agspec.trace.check import EXIT_HARNESS, check_file, exit_code, expand
 from agspec.campaign.executor import Done, ExecutorError, ExecutorSpec, Task, run_ordered
 from agspec.cli.common import emit_json, fail, stderr, stdout
 from agspec.formats.schemas import self_check

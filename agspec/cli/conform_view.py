@@ -293,10 +293,10 @@ def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table
 
 
 def check_trace_command(path: str, fmt: str) -> int:
-    from agspec.campaign.check import diag_record, paired_records, report_record
+    from agspec.trace.check import diag_record, paired_records, report_record
     from agspec.cli.check_view import timing
-    from agspec.conform.invariants import INVARIANT_IDS, check_trace
-    from agspec.campaign.check import trace_diag, verify_whole
+    from agspec.invariants import INVARIANT_IDS, check_trace
+    from agspec.trace.check import trace_diag, verify_whole
     from agspec.trace.read import read_trace
 
     records, diags = read_trace(path)

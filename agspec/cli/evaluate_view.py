@@ -247,7 +247,8 @@ class Campaign:
         from agspec.evaluate import summarize
         from agspec.policy import published
         from agspec.policy.coverage import coverage, describe_sets, final_test_only, incomplete
-        from agspec.policy.stats import MissingExtra, compare
+        from agspec.extras import MissingExtra
+        from agspec.policy.stats import compare
         from agspec.policy.tables import COMPARISON_HEADER, comparison_cells, fmt_cell, layout, notes, row_n, row_name
 
         labels = self.labels

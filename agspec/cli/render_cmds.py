@@ -91,7 +91,7 @@ SCHEMA_SAMPLE = 5  # tick records schema-checked besides the header and footer (
 
 def _encode(path: Path, keyframe: int, title: str | None) -> dict:
     """Read and encode a trace; schema problems are warnings (a viewer must show broken traces too)."""
-    from agspec.conform.protocol import validate
+    from agspec.formats.schemas import validate
     from agspec.trace.read import read_trace
     from agspec.viewer.encode import EncodeError, encode, trace_data
 

@@ -15,7 +15,7 @@ from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, FORMAT_OPTION, SEED_RA
 from agspec.cli.grammar import horizon_option, timeout_option
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.controllers import CONTROLLERS
-from agspec.policy.host import DEFAULT_LOAD_TIMEOUT
+from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT
 
 PAPER_DIR = "paper-reproduction"  # `evaluate --paper`'s default output directory
 

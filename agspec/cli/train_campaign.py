@@ -37,7 +37,7 @@ def load_plan(text: str) -> dict[str, Any]:
 
 def run_plan(text: str, out: Path, settings: Mapping[str, Any], executor: Any, gpus: float, fmt: str) -> None:
     from agspec.campaign.executor import ExecutorError
-    from agspec.train.api import MissingExtra, require_torch
+    from agspec.extras import MissingExtra, require_torch
     from agspec.train.campaign import items, run_campaign
 
     plan = load_plan(text)

@@ -76,7 +76,8 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
     the final policy into -o/--output; `agspec evaluate --policy OUT` evaluates it, `agspec report OUT --to
     svg` draws its curves.  Needs the extra agspec[train] (PyTorch).
     """
-    from agspec.train.api import MissingExtra, scenario_family
+    from agspec.extras import MissingExtra
+    from agspec.train.api import scenario_family
     from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override, resolve
 
     if campaign_plan is not None:
@@ -140,7 +141,7 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
 def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from agspec.train.rundir import RunDirError, refuse_foreign
+    from agspec.checkpoint.rundir import RunDirError, refuse_foreign
 
     try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
         refuse_foreign(out)
@@ -148,7 +149,7 @@ def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
         fail(str(exc), EXIT_USAGE)
     try:
         from agspec.train.api import train as train_run
-        from agspec.train.checkpoint import CheckpointError
+        from agspec.checkpoint.files import CheckpointError
     except ImportError as exc:  # the extra is missing: say how to install it (F-EXIT-CODES: usage)
         fail(f"agspec train needs PyTorch ({exc}): pip install 'agspec[train]'", EXIT_USAGE)
     from agspec.train.config import ConfigError

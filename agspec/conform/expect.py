@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 
-from agspec.conform.protocol import validate
+from agspec.formats.schemas import validate
 from agspec.formats import limits
 
 

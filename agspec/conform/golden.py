@@ -25,7 +25,8 @@ from typing import Any, Mapping
 
 import networkx
 
-from agspec.conform import driver, protocol
+from agspec.conform import driver
+from agspec.formats import protocol
 from agspec.conform.impl import MATCHED, Implementation, Reply
 from agspec.conform.items import Item
 from agspec.formats import golden as fmt

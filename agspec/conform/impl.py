@@ -10,7 +10,7 @@
 Every adapter offers ``start() -> info``, ``load(instance)``, ``reset(seed) -> reply``,
 ``step(actions) -> reply`` and ``close()``; a reply is a dict with ``t``, ``state``, ``events`` and,
 as declared by the capabilities, ``observations``, ``masks``, ``done`` and ``applied``.  Failures
-raise :class:`~agspec.conform.protocol.ProtocolError` (category ``crash``, ``timeout`` or
+raise :class:`~agspec.formats.protocol.ProtocolError` (category ``crash``, ``timeout`` or
 ``protocol``; F-PROTOCOL-ERRORS).  After a failure the adapter restarts on next use and replays its
 session commands (``start``, then ``load`` of the current instance), as Bowtie does, so one crashing
 or hanging case never takes the following ones down.
@@ -38,7 +38,7 @@ from agspec.conform.implementation import (  # noqa: F401 - MATCHED, MessageHook
     MessageHook,
     Reply,
 )
-from agspec.conform.protocol import ProtocolError
+from agspec.formats.protocol import ProtocolError
 from agspec.conform.serve import Server
 from agspec.conform.subprocess_impl import SubprocessImpl
 from agspec.formats import reply as reply_format

@@ -9,8 +9,8 @@ from __future__ import annotations
 import json
 from typing import Any, Callable, Mapping, Sequence
 
-from agspec.conform import protocol
-from agspec.conform.protocol import ProtocolError
+from agspec.formats import protocol
+from agspec.formats.protocol import ProtocolError
 from agspec.conform.pipeline import Pipeline
 from agspec.conform.session import Budget, RequestLog
 from agspec.formats import golden as golden_format

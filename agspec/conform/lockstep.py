@@ -27,14 +27,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from agspec.conform import compare, driver, golden, invariants, known
+from agspec import invariants
+from agspec.conform import compare, driver, golden, known
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
 from agspec.formats.divergences import expect_entry
 from agspec.conform.driver import Pair
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.items import Item
 from agspec.conform.policies import ControllerPolicy, ScriptPolicy
-from agspec.conform.protocol import ProtocolError, Unsupported
+from agspec.formats.protocol import ProtocolError, Unsupported
 
 # F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
 LEVEL_PARTS = ("events", "state", "observations", "masks")

@@ -11,8 +11,8 @@ from __future__ import annotations
 import collections
 from typing import Any, Callable, Iterator, Mapping, Sequence
 
-from agspec.conform import protocol
-from agspec.conform.protocol import ProtocolError
+from agspec.formats import protocol
+from agspec.formats.protocol import ProtocolError
 
 Reply = dict[str, Any]
 

@@ -27,7 +27,7 @@ from agspec.conform import expect as expect_mod
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
 from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
-from agspec.conform.protocol import PROTOCOL
+from agspec.formats.protocol import PROTOCOL
 from agspec.conform.values import rules_exercised
 from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 

@@ -20,7 +20,7 @@ import traceback
 from typing import IO, Any, Mapping
 
 from agspec import __version__
-from agspec.conform.protocol import PROTOCOL, encode, error_reply, loads
+from agspec.formats.protocol import PROTOCOL, encode, error_reply, loads
 from agspec.formats.jsonl import compact_bytes
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from agspec.conform.protocol import ProtocolError
+from agspec.formats.protocol import ProtocolError
 from agspec.ir.fingerprint import fingerprint
 
 LOG_CAP = 1_000_000  # requests a log keeps (beyond: the history is incomplete, not reproducible from it)

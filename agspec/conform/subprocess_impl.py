@@ -17,8 +17,9 @@ import threading
 import time
 from typing import Any, Mapping, Sequence
 
-from agspec.conform import protocol, teardown
-from agspec.conform.protocol import ProtocolError
+from agspec.conform import teardown
+from agspec.formats import protocol
+from agspec.formats.protocol import ProtocolError
 from agspec.conform.implementation import Implementation, ImplSpecError
 from agspec.conform.pipeline import Pipeline
 

@@ -108,7 +108,7 @@ def capacity_snapshot(state: State, model: Model, candidates: list[Candidate],
     )
 
 
-def _pct(values: list[float], q: float) -> float:
+def percentile(values: list[float], q: float) -> float:
     """Element at index round(q (n-1)) of the sorted values (half-to-even), 0.0 when empty."""
     if not values:
         return 0.0
@@ -198,8 +198,8 @@ class MetricsAccumulator:
             "mean_wip": self.wip_sum / max(1, self.wip_samples),
             "restricted_mean_flow_time": sum(rmft_terms) / len(rmft_terms) if rmft_terms else None,
             "mean_flow_time": sum(flow) / len(flow) if flow else None,  # M-FLOW-TIME
-            "flow_time_p50": _pct(flow, 0.5),
-            "flow_time_p90": _pct(flow, 0.9),
+            "flow_time_p50": percentile(flow, 0.5),
+            "flow_time_p90": percentile(flow, 0.9),
             "unfinished_count": released - delivered,
             "makespan": (max(p.complete_time for p in state.products) - min(p.spawn_time for p in state.products))
             if batch_done

@@ -118,7 +118,7 @@ def _recover(text: str) -> dict[str, Any] | None:
 def read_bundle(path: str | Path) -> dict[str, Any]:
     """A results bundle, schema-checked; an interrupted one is recovered (``complete: false``).
     Read within the F-LIMITS limits (size, UTF-8, values, depth, duplicate keys)."""
-    from agspec.conform.protocol import validate
+    from agspec.formats.schemas import validate
 
     path = Path(path)
     try:

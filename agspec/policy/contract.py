@@ -9,7 +9,6 @@ process boundaries; the factory is imported where the episode runs.
 
 from __future__ import annotations
 
-import hashlib
 import re
 import shlex
 from dataclasses import dataclass
@@ -18,6 +17,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from agspec.controllers import CONTROLLERS
+from agspec.extras import MissingExtra, require_torch
+from agspec.formats.digest import file_sha256
 
 KINDS = ("controller", "python", "checkpoint", "command")
 _PYTHON_TARGET = re.compile(r"^(?P<module>[^\s:]+):(?P<attr>[A-Za-z_][A-Za-z0-9_]*)$")
@@ -63,15 +64,6 @@ class PolicySpec:
         return out
 
 
-def file_sha256(path: Path) -> str:
-    """The SHA-256 of a file's bytes (a policy's module or script, a checkpoint), read in chunks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def parse_policy(text: str, label: str | None = None, version: str | None = None) -> PolicySpec:
     """F-POLICY-SPEC: a controller name, ``PATH.py:NAME``, ``package.module:NAME`` or a command line."""
     text = (text or "").strip()
@@ -103,7 +95,7 @@ def parse_policy(text: str, label: str | None = None, version: str | None = None
 def checkpoint_policy(run_dir: Path, label: str | None = None, version: str | None = None) -> PolicySpec:
     """F-POLICY-CHECKPOINT: a finished ``agspec train`` run directory; its identity is the policy file's
     SHA-256 with the run's algorithm, scenario, seed, steps and configuration digest."""
-    from agspec.train.rundir import POLICY, RunDirError, read_summary
+    from agspec.checkpoint.rundir import POLICY, RunDirError, read_summary
 
     try:
         summary = read_summary(run_dir)
@@ -140,11 +132,13 @@ def _module_digest(module: str) -> str | None:
 def _checkpoint_factory(run_dir: str, digest: str | None) -> Callable[..., Any]:
     """A run directory's factory, loaded once per process and policy file (F-POLICY-HOST: the import of a
     Python policy's module is once per worker; a checkpoint's load is the same)."""
-    from agspec.train.api import MissingExtra, load_policy
-    from agspec.train.checkpoint import CheckpointError
+    from agspec.checkpoint.files import CheckpointError
 
     try:
-        return load_policy(run_dir)
+        require_torch()  # before the import: the networks' module imports torch at its top
+        from agspec.checkpoint.policy import factory_from_run
+
+        return factory_from_run(run_dir)
     except (MissingExtra, CheckpointError) as exc:
         raise PolicySpecError(f"--policy {run_dir}: {exc}") from None
 

@@ -13,24 +13,12 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from agspec.policy.coverage import Planned
-from agspec.policy.stats import MissingExtra
+from agspec.extras import pyplot
 from agspec.policy.tables import DIFFICULTIES, INCOMPLETE, Row, display, layout, row_n
 
 PANEL_FAMILIES = ("coalition", "concurrency", "flow")  # the paper's column order
 PANEL_METRICS = (("completion_rate", "Admitted completion", 1.0), ("delivered", "Delivered products / horizon", None))
 FORMATS = ("svg", "png", "pdf")
-
-
-def _pyplot():
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        matplotlib.rcParams["svg.fonttype"] = "none"  # text stays text: searchable, editable, checkable
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise MissingExtra("figures need matplotlib: pip install 'agspec[plot]'") from None
-    return plt
 
 
 SCENARIOS = tuple(f"{fam}-{d}" for fam in PANEL_FAMILIES for d in DIFFICULTIES)
@@ -57,7 +45,7 @@ def legend_label(rows: Sequence[Row]) -> str:
 def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Path, with_published: bool = True,
          planned: Planned | None = None, instances: str = "final-test instances") -> Path:
     """Render the figure to ``path`` (format from its suffix: .svg, .png or .pdf)."""
-    plt = _pyplot()
+    plt = pyplot()
     data = series(episodes, labels, with_published, planned)
     fig, axes = plt.subplots(2, 3, figsize=(11, 5.6), sharey="row", constrained_layout=True)
     # a series is shown when it has a value or a planned episode in a panel: a row whose every episode

@@ -10,7 +10,7 @@ compared with the first run's.  Policy processes (``command`` policies) are star
 already; the reference controllers are deterministic (chapter 11).
 
 ``python -m agspec.policy.fresh JOB RECORD`` is that child: it reads a pickled
-:class:`~agspec.evaluate.Job` from the file JOB and writes the pickled record to the file RECORD.
+:class:`~agspec.policy.episode.Job` from the file JOB and writes the pickled record to the file RECORD.
 """
 
 from __future__ import annotations
@@ -20,10 +20,12 @@ import pickle
 import subprocess
 import sys
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from agspec.policy.contract import PolicyError
+from agspec.policy.episode import run_here
 
 STDERR_KEEP = 4000  # characters of a failed child's standard error kept in the error record
 
@@ -46,13 +48,8 @@ def run_fresh(job: Any) -> dict[str, Any]:
 
 
 def main(argv: list[str]) -> int:
-    # imported here: agspec.evaluate imports this module to call run_fresh
-    from dataclasses import replace
-
-    from agspec.evaluate import run_job
-
     job = pickle.loads(Path(argv[0]).read_bytes())
-    record = {**run_job(replace(job, repeat=False)), "repeat": True}  # here, the episode itself
+    record = {**run_here(replace(job, repeat=False)), "repeat": True}  # here, the episode itself
     Path(argv[1]).write_bytes(pickle.dumps(record))
     return 0
 

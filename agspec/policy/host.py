@@ -4,7 +4,7 @@ A campaign worker (a pool process, a Ray actor, or the CLI itself with ``-j 1``)
 user's policy module.  It keeps one :class:`PolicyHost` per policy target: a child interpreter
 (``python -m agspec.policy.host``, in its own session and process group, its stdout sent to
 stderr) that imports the module once and then runs one episode per request through the one
-episode runner (:func:`agspec.evaluate.run_job`), calling the factory once per episode
+episode runner (:func:`agspec.policy.episode.run_here`), calling the factory once per episode
 (F-POLICY-PYTHON).  The child announces each phase on its socket — loading (module import and
 factory call) and each decision — and the worker waits with the phase's limit: ``load_timeout``
 for loading, ``timeout`` for a decision, none while the reference simulator steps.
@@ -30,9 +30,10 @@ from dataclasses import replace
 from multiprocessing.connection import Connection
 from typing import Any, Iterator
 
+from agspec.campaign.task import describe
 from agspec.policy.contract import PolicyError
+from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT, job_record, run_here
 
-DEFAULT_LOAD_TIMEOUT = 600.0  # seconds to import a policy module and call its factory (F-POLICY-HOST)
 _PARENT_POLL = 1.0  # how often an orphaned host checks that its worker is alive
 
 
@@ -55,8 +56,6 @@ class PolicyHost:
 
     def run(self, job: Any) -> dict[str, Any]:
         """The episode record of ``job``; a timeout or a dead host gives an error record (and kills the host)."""
-        from agspec.evaluate import job_record
-
         started = time.perf_counter()
         load_limit = job.load_timeout if job.load_timeout is not None else DEFAULT_LOAD_TIMEOUT
         try:
@@ -157,9 +156,6 @@ def _watch_parent(parent: int) -> None:
 
 
 def _host_main(conn: Connection, parent: int) -> None:
-    from agspec.campaign.executor import describe
-    from agspec.evaluate import run_job
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the worker, which tears the host down
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
@@ -175,7 +171,7 @@ def _host_main(conn: Connection, parent: int) -> None:
             if job is None:
                 return
             try:
-                conn.send(("record", run_job(job, guard=announce)))
+                conn.send(("record", run_here(job, guard=announce)))
             except Exception as exc:
                 conn.send(("raised", describe(exc)))
     except (EOFError, OSError):

@@ -3,7 +3,7 @@
 A session owns the episode's :class:`~agspec.interp.tick.Simulator` (``sim``), proposes the raw
 joint action of the current epoch (``act``) and advances the simulator with a checked joint action
 (``step``).  The episode loop, the action checks and the counting of illegal actions live in
-:func:`agspec.evaluate.run_episode`, once for every kind of policy.
+:func:`agspec.policy.episode.run_episode`, once for every kind of policy.
 
 * :class:`ControllerSession`  a reference controller (chapter 11);
 * :class:`PettingZooSession`  an in-process factory ``NAME(env)`` given that episode's PettingZoo
@@ -178,7 +178,7 @@ class ProcessSession:
             raise
 
     def _ask(self, cmd: str, tick: int | None, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
-        from agspec.conform.protocol import ProtocolError
+        from agspec.formats.protocol import ProtocolError
 
         msg = {"cmd": cmd, "seq": self.proc._next_seq(), **fields}
         try:
@@ -221,7 +221,7 @@ class ProcessSession:
 
 def validate_message(name: str, message: Any) -> list[str]:
     """Problems of a policy-protocol message against ``schemas/protocol/{name}.schema.json``."""
-    from agspec.conform.protocol import validate
+    from agspec.formats.schemas import validate
 
     return [str(p) for p in validate(f"protocol/{name}", message, limit=3)]
 

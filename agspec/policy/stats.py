@@ -1,6 +1,6 @@
 """Summaries and the paired comparison of a policy against a reference (F-POLICY-COMPARISON).
 
-Per-policy summaries are the paper's mean ± 1.96·s/√n (:func:`agspec.evaluate.mean_ci`).  The paired
+Per-policy summaries are the paper's mean ± 1.96·s/√n (:func:`mean_ci`).  The paired
 comparison pairs episodes by (scenario, suite index), both ``ok``; its interval and test are SciPy's
 ``ttest_rel`` (Student-t on the paired differences, the paper's paired intervals) with the Wilcoxon
 signed-rank test beside it.  SciPy is the optional extra ``agspec[eval]``.
@@ -9,21 +9,24 @@ signed-rank test beside it.  SciPy is the optional extra ``agspec[eval]``.
 from __future__ import annotations
 
 import math
+import statistics
 from typing import Any, Iterable, Mapping
 
-from agspec.evaluate import mean_ci
+from agspec.extras import scipy_stats
 
 
-class MissingExtra(RuntimeError):
-    """An optional dependency is not installed (message says which extra provides it)."""
+def mean_ci(values: list[float]) -> tuple[float, float]:
+    """Mean and 95 % normal-approximation half-width 1.96·s/√n (s: sample standard deviation)."""
+    if not values:
+        return (math.nan, math.nan)
+    mean = statistics.fmean(values)
+    if len(values) < 2:
+        return (mean, 0.0)
+    return (mean, 1.96 * statistics.stdev(values) / math.sqrt(len(values)))
 
 
 def _scipy_stats():
-    try:
-        from scipy import stats
-    except ImportError:
-        raise MissingExtra("the paired comparison needs SciPy: pip install 'agspec[eval]'") from None
-    return stats
+    return scipy_stats("the paired comparison")
 
 
 def _finite(x: float) -> float | None:

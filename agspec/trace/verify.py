@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 from agspec.diagnostics import Diagnostic
 from agspec.formats.divergences import by_scope
-from agspec.interp.metrics import _pct as percentile
+from agspec.interp.metrics import percentile
 from agspec.trace.pairing import pair_records
 
 Json = dict[str, Any]

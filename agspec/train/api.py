@@ -14,24 +14,12 @@ from __future__ import annotations
 import os
 from typing import Any, Callable, Mapping
 
+from agspec.extras import MissingExtra, require_torch
 from agspec.train.config import ConfigError, resolve
-from agspec.train.rundir import RunDirError, is_complete, read_summary
+from agspec.checkpoint.rundir import RunDirError, is_complete, read_summary
 
 __all__ = ["ConfigError", "MissingExtra", "RunDirError", "is_complete", "load_policy", "read_summary",
            "resolve_config", "train"]
-
-
-class MissingExtra(RuntimeError):
-    """PyTorch (or another training dependency) is not installed; the message names the extra."""
-
-
-def require_torch() -> Any:
-    try:
-        import torch
-    except ImportError:
-        raise MissingExtra("training needs PyTorch: pip install 'agspec[train]' "
-                           "(a CPU build: pip install torch --index-url https://download.pytorch.org/whl/cpu)") from None
-    return torch
 
 
 def scenario_family(scenario: str) -> str | None:
@@ -76,6 +64,6 @@ def load_policy(run_dir: str | os.PathLike, action: str | None = None) -> Callab
     returns ``policy(observations, infos) -> actions``, the masked argmax of the trained network
     (T-EVAL-ACTION); ``action="sample"`` plays the sampled training-time behaviour instead."""
     require_torch()
-    from agspec.train.policy import factory_from_run
+    from agspec.checkpoint.policy import factory_from_run
 
     return factory_from_run(run_dir, action)

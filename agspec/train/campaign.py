@@ -47,7 +47,7 @@ def paper_plan() -> dict[str, Any]:
 
 def check_plan(plan: Any, where: str = "plan") -> dict[str, Any]:
     """The plan, schema-checked (``schemas/training-plan.schema.json``), with its defaults filled in."""
-    from agspec.conform.protocol import validate
+    from agspec.formats.schemas import validate
 
     problems = validate("training-plan", plan, limit=1)
     if problems:

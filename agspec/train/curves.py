@@ -14,9 +14,9 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from agspec.policy.figure import _pyplot
+from agspec.extras import pyplot
 from agspec.train.record import read_record
-from agspec.train.rundir import RECORD, RunDirError, read_summary
+from agspec.checkpoint.rundir import RECORD, RunDirError, read_summary
 
 # the paper's colours (AGQMIX, AGIPPO, AGMAPPO) and names
 COLOURS = {"qmix": "#F9DEAC", "ippo": "#F99B1C", "mappo": "#7A5100"}
@@ -56,7 +56,7 @@ def band(runs: Sequence[Mapping[str, Any]], key: str) -> tuple[np.ndarray, np.nd
 
 def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
     """One row of panels per scenario; one line (median) and band (IQR) per method."""
-    plt = _pyplot()
+    plt = pyplot()
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for run in runs:
         s = run["summary"]

@@ -13,7 +13,7 @@ import statistics
 from typing import Any, Iterable, Mapping
 
 from agspec.policy import published
-from agspec.policy.stats import MissingExtra
+from agspec.extras import scipy_stats
 
 PAPER_NAMES = {"ippo": "IPPO", "mappo": "MAPPO", "qmix": "QMIX"}
 
@@ -22,10 +22,7 @@ def t_half_width(values: list[float]) -> float | None:
     """t₀.₉₇₅,ₙ₋₁ · s / √n over per-policy means; None for fewer than two."""
     if len(values) < 2:
         return None
-    try:
-        from scipy import stats
-    except ImportError:
-        raise MissingExtra("the Student-t interval over training seeds needs SciPy: pip install 'agspec[eval]'") from None
+    stats = scipy_stats("the Student-t interval over training seeds")
     return float(stats.t.ppf(0.975, len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values)))
 
 

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from agspec.train import nets
+from agspec.checkpoint import nets
 from agspec.train.rollout import EpisodeStats, restart, step_info
 
 

@@ -27,7 +27,7 @@ from typing import Any, Callable
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from agspec.conform.impl import SubprocessImpl  # noqa: E402
-from agspec.conform.protocol import ProtocolError, loads  # noqa: E402
+from agspec.formats.protocol import ProtocolError, loads  # noqa: E402
 from agspec.conform.serve import Server  # noqa: E402
 from agspec.formats.jsonl import compact_bytes  # noqa: E402
 

@@ -19,9 +19,9 @@ from typing import Any, Callable, Mapping
 import numpy as np
 import torch
 
-from agspec.train import nets
-from agspec.train.checkpoint import CheckpointError, load_policy_file
-from agspec.train.rundir import POLICY
+from agspec.checkpoint import nets
+from agspec.checkpoint.files import CheckpointError, load_policy_file
+from agspec.checkpoint.rundir import POLICY
 
 
 SAMPLE_SUFFIX = "#sample"

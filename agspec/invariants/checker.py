@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
-from agspec.conform.invariants.context import (
+from agspec.invariants.context import (
     INVARIANT_IDS,
     TRACE_EMPTY,
     TRACE_TRUNCATED,
@@ -15,21 +15,21 @@ from agspec.conform.invariants.context import (
     Json,
     Violation,
 )
-from agspec.conform.invariants.coordination import (
+from agspec.invariants.coordination import (
     canonical_roles,
     inv_arity,
     inv_lifetime,
     inv_progress,
     inv_support,
 )
-from agspec.conform.invariants.information import (
+from agspec.invariants.information import (
     expected_mask,
     expected_pick_ids,
     inv_masking,
     inv_observation,
 )
-from agspec.conform.invariants.material import inv_accounting, inv_conservation, inv_recipe
-from agspec.conform.invariants.space import inv_exclusivity, inv_locality
+from agspec.invariants.material import inv_accounting, inv_conservation, inv_recipe
+from agspec.invariants.space import inv_exclusivity, inv_locality
 from agspec.formats.trace import read_records
 
 

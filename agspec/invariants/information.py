@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from agspec.conform.invariants.context import (
+from agspec.invariants.context import (
     NEIGHBOUR_FIELDS,
     OBS_FIELDS,
     OPERATION_OPTION_FIELDS,

@@ -32,7 +32,7 @@ The eleven ``inv_*`` functions are in their group modules and listed, in spec or
 
 from __future__ import annotations
 
-from agspec.conform.invariants.checker import (
+from agspec.invariants.checker import (
     INVARIANTS,
     REMEMBERING,
     Report,
@@ -43,9 +43,9 @@ from agspec.conform.invariants.checker import (
     parse_trace_text,
     read_trace,
 )
-from agspec.conform.invariants.context import INVARIANT_IDS, Context, Violation
-from agspec.conform.invariants.coordination import canonical_roles
-from agspec.conform.invariants.information import expected_mask, expected_pick_ids
+from agspec.invariants.context import INVARIANT_IDS, Context, Violation
+from agspec.invariants.coordination import canonical_roles
+from agspec.invariants.information import expected_mask, expected_pick_ids
 
 __all__ = [
     "Context",

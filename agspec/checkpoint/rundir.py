@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 from agspec.formats.limits import InputError, load_json
-from agspec.policy.contract import file_sha256
+from agspec.formats.digest import file_sha256
 
 RUN_SCHEMA = "agspec-training-run/1"
 CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (

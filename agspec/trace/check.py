@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Iterable
 
-from agspec.conform.invariants import check_trace
+from agspec.invariants import check_trace
 from agspec.trace.read import _diag as trace_diag
 from agspec.trace.read import read_trace
 from agspec.trace.verify import verify as verify_whole

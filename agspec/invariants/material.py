@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agspec.conform.invariants.context import Context, Json, Violation, parse_item, reporter
+from agspec.invariants.context import Context, Json, Violation, parse_item, reporter
 
 
 # --------------------------------------------------------------------------- INV-CONSERVATION

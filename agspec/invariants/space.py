@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from agspec.conform.invariants.context import (
+from agspec.invariants.context import (
     CONFLICT_TOLERANCE,
     Context,
     Json,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from agspec.conform.invariants.context import (
+from agspec.invariants.context import (
     Context,
     Json,
     OpInfo,
