@@ -85,7 +85,7 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
     from agspec.conform.impl import ImplSpecError, make_impl
     from agspec.conform.lockstep import Options
     from agspec.conform.runner import run
-    from agspec.conform.teardown import exit_on_signals
+    from agspec.transport.teardown import exit_on_signals
 
     try:
         impl = make_impl(impl_spec, timeout=impl_timeout, validate=validate)

@@ -17,7 +17,7 @@ from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, 
 from agspec.conform.compare import reply_name
 from agspec.conform.lockstep import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
-from agspec.conform.teardown import exit_on_signals
+from agspec.transport.teardown import exit_on_signals
 from agspec.formats import limits
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")

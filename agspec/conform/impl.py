@@ -22,13 +22,8 @@ The shared session logic is :mod:`agspec.conform.implementation`, the process ad
 from __future__ import annotations
 
 import copy
-import importlib
-import importlib.util
-import os
 import shlex
-import sys
 import traceback
-from pathlib import Path
 from typing import Any, Callable
 
 from agspec.conform.implementation import (  # noqa: F401 - MATCHED, MessageHook, Reply: the names importers use
@@ -42,6 +37,7 @@ from agspec.formats.protocol import ProtocolError
 from agspec.conform.serve import Server
 from agspec.conform.subprocess_impl import SubprocessImpl
 from agspec.formats import reply as reply_format
+from agspec.transport.factory import FactoryError, load_factory
 
 
 
@@ -108,41 +104,6 @@ class ReferenceImpl(PythonImpl):
         return self.adapter.sim if self.adapter is not None else None
 
 
-def _load_factory(target: str) -> Callable[[], Any]:
-    """``pkg.module:factory`` or ``path/to/file.py:factory`` -> the factory callable."""
-    module_name, sep, attr = target.rpartition(":")
-    if not sep or not module_name or not attr:
-        raise ImplSpecError(f"`python:{target}`: expected python:pkg.module:factory or python:path/file.py:factory")
-    try:
-        if module_name.endswith(".py") or os.sep in module_name or "/" in module_name:
-            path = Path(module_name)
-            if not path.is_file():
-                raise ImplSpecError(f"`python:{target}`: no file {module_name}")
-            name = f"agspec_impl_{abs(hash(str(path.resolve())))}"
-            module = sys.modules.get(name)  # a file is executed once per process, as an import is (F-POLICY-PYTHON)
-            if module is None:
-                spec = importlib.util.spec_from_file_location(name, path)
-                if spec is None or spec.loader is None:
-                    raise ImplSpecError(f"`python:{target}`: cannot import {module_name}")
-                module = importlib.util.module_from_spec(spec)
-                sys.modules[name] = module
-                try:
-                    spec.loader.exec_module(module)
-                except BaseException:
-                    sys.modules.pop(name, None)  # a failed import leaves nothing half-initialised behind
-                    raise
-        else:
-            module = importlib.import_module(module_name)
-    except ImplSpecError:
-        raise
-    except Exception as exc:  # ImportError, or the module raising at import time
-        raise ImplSpecError(f"`python:{target}`: cannot import {module_name}: {type(exc).__name__}: {exc}") from None
-    factory = getattr(module, attr, None)
-    if not callable(factory):
-        raise ImplSpecError(f"`python:{target}`: {module_name} has no callable `{attr}`")
-    return factory
-
-
 def make_impl(spec: str, *, timeout: float = 5.0, validate: bool = False,
               on_message: MessageHook | None = None) -> Implementation:
     """The implementation an ``--impl`` value names (see the module docstring)."""
@@ -152,7 +113,10 @@ def make_impl(spec: str, *, timeout: float = 5.0, validate: bool = False,
     if spec == "reference":
         return ReferenceImpl(validate=validate, on_message=on_message)
     if spec.startswith("python:"):
-        factory = _load_factory(spec[len("python:"):])
+        try:
+            factory = load_factory(spec[len("python:"):], "python:")
+        except FactoryError as exc:
+            raise ImplSpecError(str(exc)) from None
         return PythonImpl(factory, spec=spec, validate=validate, on_message=on_message)
     try:
         argv = shlex.split(spec)

@@ -6,7 +6,6 @@ commands after a failure.  The adapters are in :mod:`agspec.conform.impl` (in pr
 
 from __future__ import annotations
 
-import json
 from typing import Any, Callable, Mapping, Sequence
 
 from agspec.formats import protocol
@@ -15,7 +14,7 @@ from agspec.conform.pipeline import Pipeline
 from agspec.conform.session import Budget, RequestLog
 from agspec.formats import golden as golden_format
 from agspec.formats import jsonl
-from agspec.formats import reply as reply_format
+from agspec.transport import peer
 
 Reply = dict[str, Any]
 # F-GOLDEN: a reply line that is byte for byte the golden one (returned instead of the decoded reply)
@@ -142,29 +141,10 @@ class Implementation:
         self._ensure()
         return Pipeline(self, steps, window=1)
 
-    def exchange(self, msg: dict[str, Any], timeout: float | None) -> Reply:
-        """Send one message and return its decoded reply (seq checked, nesting bounded), without the
-        protocol's reply checks — for peers that speak another message set over the same transport
-        (F-POLICY-PROTOCOL)."""
-        reply = self._decoded(msg, self._exchange(msg, timeout))
-        if jsonl.depth(reply) > jsonl.MAX_DEPTH:
-            raise ProtocolError("too_deep", f"the {msg['cmd']} reply nests deeper than {jsonl.MAX_DEPTH} levels",
-                                stderr=self.stderr_tail())
-        return reply
-
     def _decoded(self, msg: Mapping[str, Any], raw: Any) -> Reply:
-        """The reply object of what ``_exchange`` returned: a line (bytes; text is encoded first) goes
-        through the one decoder (:func:`agspec.formats.reply.decode_line`); either must be an object
-        echoing the request's seq.  Its nesting is bounded by the shape check that follows."""
-        if isinstance(raw, str):
-            raw = _line_of(raw, msg["cmd"], self.stderr_tail)
-        if isinstance(raw, bytes):
-            raw = _decode(raw, msg["cmd"], self.stderr_tail)
-        if not isinstance(raw, dict):
-            raise ProtocolError("malformed_json", f"the {msg['cmd']} reply is not a JSON object but "
-                                                  f"{protocol.json_type(raw)}", stderr=self.stderr_tail())
-        _check_seq(msg, raw, self._seq)
-        return raw
+        """The reply object of what ``_exchange`` returned, through the one decoder
+        (:func:`agspec.transport.peer.decode_reply`); its nesting is bounded by the shape check that follows."""
+        return peer.decode_reply(msg, raw, self._seq, self.stderr_tail)
 
     def _fail(self) -> None:
         """Forget the session after a failure: the next request restarts it."""
@@ -242,26 +222,6 @@ class Implementation:
         self.close()
 
 
-def _decode(line: bytes, cmd: str, stderr: str | Callable[[], str]) -> Any:
-    """One reply line through the one decoder (F-PROTOCOL-LINES); every malformation is the simulator's
-    protocol error, shown with the start of the line."""
-    try:
-        return reply_format.decode_line(line)
-    except reply_format.LineError as exc:
-        shown = line[:117].decode("utf-8", "backslashreplace") + ("..." if len(line) > 117 else "")
-        raise ProtocolError(exc.code, f"the {cmd} reply is malformed: {exc.message}: {shown!r}",
-                            stderr=stderr() if callable(stderr) else stderr) from None
-
-
-def _line_of(text: str, cmd: str, stderr: str | Callable[[], str]) -> bytes:
-    """A reply given as text: its UTF-8 line (a lone surrogate has none)."""
-    try:
-        return text.encode("utf-8")
-    except UnicodeEncodeError:
-        raise ProtocolError("bad_encoding", f"the {cmd} reply holds a lone surrogate, which is not Unicode text",
-                            stderr=stderr() if callable(stderr) else stderr) from None
-
-
 def _golden_text(raw: Any, seq: int) -> str | None:
     """F-GOLDEN: the text digest of what ``_exchange`` returned — of the line itself, or of an in-process
     reply's compact line when the ``fast`` encoder makes that cheaper than its value digest."""
@@ -273,16 +233,3 @@ def _golden_text(raw: Any, seq: int) -> str | None:
         except (TypeError, ValueError):
             return None
     return None
-
-
-def _check_seq(msg: Mapping[str, Any], reply: Mapping[str, Any], current: int) -> None:
-    """F-PROTOCOL: the reply echoes the request's seq; an earlier one is out of order."""
-    if "seq" not in reply:
-        raise ProtocolError("missing_field", f"the {msg['cmd']} reply has no `seq`")
-    got, sent = reply["seq"], msg["seq"]
-    if got == sent and isinstance(got, bool) == isinstance(sent, bool):  # F-VALUES: 4.0 echoes 4
-        return
-    if isinstance(got, (int, float)) and not isinstance(got, bool) and 0 < got < current:
-        raise ProtocolError("out_of_order", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {got} "
-                                            "of an earlier request")
-    raise ProtocolError("wrong_seq", f"the reply to {msg['cmd']} (seq {msg['seq']}) echoes seq {json.dumps(got)[:80]}")

@@ -19,6 +19,7 @@ from typing import Any, Callable
 from agspec.controllers import CONTROLLERS
 from agspec.extras import MissingExtra, require_torch
 from agspec.formats.digest import file_sha256
+from agspec.transport import factory as factories
 
 KINDS = ("controller", "python", "checkpoint", "command")
 _PYTHON_TARGET = re.compile(r"^(?P<module>[^\s:]+):(?P<attr>[A-Za-z_][A-Za-z0-9_]*)$")
@@ -147,9 +148,7 @@ def load_factory(spec: PolicySpec) -> Callable[..., Any]:
     """The factory an in-process policy names (F-POLICY-PYTHON), imported in the calling process."""
     if spec.kind == "checkpoint":  # F-POLICY-CHECKPOINT
         return _checkpoint_factory(spec.target, spec.file_digest)
-    from agspec.conform.impl import ImplSpecError, _load_factory
-
     try:
-        return _load_factory(spec.target)
-    except ImplSpecError as exc:
-        raise PolicySpecError(str(exc).replace("`python:", "`--policy ")) from None
+        return factories.load_factory(spec.target, "--policy ")
+    except factories.FactoryError as exc:
+        raise PolicySpecError(str(exc)) from None

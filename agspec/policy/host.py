@@ -33,6 +33,7 @@ from typing import Any, Iterator
 from agspec.campaign.task import describe
 from agspec.policy.contract import PolicyError
 from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT, job_record, run_here
+from agspec.transport.process import kill_group
 
 _PARENT_POLL = 1.0  # how often an orphaned host checks that its worker is alive
 
@@ -102,14 +103,7 @@ class PolicyHost:
 
     def kill(self) -> None:
         """Tear the host and everything it started down (its own process group)."""
-        try:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-        try:
-            self.proc.wait(5.0)
-        except subprocess.TimeoutExpired:
-            pass
+        kill_group(self.proc, wait=5.0)
         self.conn.close()
 
     def close(self) -> None:

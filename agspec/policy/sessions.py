@@ -14,14 +14,17 @@ joint action of the current epoch (``act``) and advances the simulator with a ch
 
 from __future__ import annotations
 
+import shlex
 import signal
 import threading
 import traceback
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator, Mapping, NamedTuple
 
+from agspec.formats.protocol import ProtocolError
 from agspec.interp.tick import Simulator
 from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError, load_factory
+from agspec.transport.peer import Peer
 
 POLICY_PROTOCOL = "agspec-policy/1"
 
@@ -156,14 +159,18 @@ class ProcessSession:
 
     def __init__(self, spec: PolicySpec, instance: Mapping[str, Any], exec_seed: int | None, *,
                  timeout: float | None = None, scenario: str | None = None, index: int | None = None, **_: Any):
-        from agspec.conform.impl import SubprocessImpl
-
         self.sim = Simulator(instance)
         self.sim.reset(exec_seed)
         self.name, self.information = spec.label, "local"
         self.observations: Mapping[str, Any] | None = None
-        self.proc = SubprocessImpl(spec.target, timeout or 10.0)
-        self.proc._open()
+        try:
+            argv = shlex.split(spec.target)
+        except ValueError as exc:
+            raise PolicySpecError(f"--policy {spec.target!r}: {exc}") from None
+        try:
+            self.peer = Peer(argv, display=spec.target, name="policy", timeout=timeout or 10.0)
+        except ProtocolError as exc:
+            raise PolicyError("crash", exc.message, detail=exc.stderr) from None
         try:
             reply = self._ask("start", None, timeout=max(timeout or 10.0, 10.0), protocol=POLICY_PROTOCOL)
             if reply.get("protocol") != POLICY_PROTOCOL:
@@ -178,23 +185,19 @@ class ProcessSession:
             raise
 
     def _ask(self, cmd: str, tick: int | None, timeout: float | None = None, **fields: Any) -> dict[str, Any]:
-        from agspec.formats.protocol import ProtocolError
-
-        msg = {"cmd": cmd, "seq": self.proc._next_seq(), **fields}
         try:
-            reply = self.proc.exchange(msg, timeout)
+            reply = self.peer.request(cmd, timeout, **fields)
         except ProtocolError as exc:
-            self.proc._fail()
             code = "timeout" if exc.code == "timeout" else ("crash" if exc.kind == "crash" else "protocol")
-            raise PolicyError(code, exc.message.replace("simulator", "policy"), tick=tick, detail=exc.stderr) from None
+            raise PolicyError(code, exc.message, tick=tick, detail=exc.stderr) from None
         problems = validate_message(f"policy-{cmd}.reply", reply)
         if problems:
             raise PolicyError("protocol", f"the {cmd} reply violates schemas/protocol/policy-{cmd}.reply.schema.json: "
-                                          f"{problems[0]}", tick=tick, detail=self.proc.stderr_tail())
+                                          f"{problems[0]}", tick=tick, detail=self.peer.stderr_tail())
         if reply.get("ok") is False:
             err = reply.get("error", {})
             raise PolicyError("protocol", f"the policy answered {cmd} with an error: {err.get('message', '')}",
-                              tick=tick, detail=self.proc.stderr_tail())
+                              tick=tick, detail=self.peer.stderr_tail())
         return reply
 
     def act(self) -> Mapping[str, Any]:
@@ -207,16 +210,7 @@ class ProcessSession:
 
     def close(self) -> None:
         """Ask the process to stop, then tear its process group down whatever it does."""
-        proc = self.proc
-        if proc.proc is not None and proc.proc.poll() is None:
-            try:
-                proc.exchange({"cmd": "stop", "seq": proc._next_seq()}, 2.0)
-            except Exception:
-                pass
-        if proc.proc is not None and proc.proc.poll() is None:
-            proc._fail()  # still running after stop: kill its process group
-        else:
-            proc._shutdown()
+        self.peer.close()
 
 
 def validate_message(name: str, message: Any) -> list[str]:

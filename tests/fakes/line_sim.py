@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The reference server behind a line transport, one of whose replies is mutated (never shipped).
 
-In process, :class:`LineSim` is a :class:`~agspec.conform.impl.SubprocessImpl` without the process: the
+In process, :class:`LineSim` is a :class:`~agspec.conform.impl.SubprocessImpl` whose transport is the server: the
 lines reach the harness exactly as a simulator's stdout would (blank lines, several lines per reply,
 pipelined replies), so the one decoder and the reply checks see what a process sends, at in-process
 speed.  As a process::
@@ -52,6 +52,41 @@ class _Positions:
         return str(cmd)
 
 
+class _ServerLines:
+    """The transport of :class:`LineSim`: :class:`agspec.transport.process.LineProcess`'s interface over the
+    reference server in this process, every reply line queued exactly as a process would write it."""
+
+    def __init__(self, sim: "LineSim"):
+        self.sim, self.server, self.lines = sim, Server(), queue.Queue()
+
+    alive = True
+    proc = None  # no operating-system process behind it
+
+    def send(self, data: bytes, cmd: str) -> None:
+        msg = json.loads(data)
+        reply = self.server.handle(msg)
+        out = compact_bytes(reply)
+        if self.sim.target in (self.sim.positions.of(msg), "*") and self.sim.mutation is not None:
+            self.sim.applied = self.sim.mutation(reply)
+            out = self.sim.applied.data
+        for line in out.split(b"\n"):
+            self.lines.put(line)
+
+    def receive(self, cmd: str, seq: int, limit: float) -> bytes:
+        try:
+            return self.lines.get_nowait()
+        except queue.Empty:
+            raise ProtocolError("timeout", f"no reply to {cmd} (seq {seq}) within {limit:g} s") from None
+
+    def stderr_tail(self, limit: int = 4000) -> str:
+        return ""
+
+    def kill(self) -> None:
+        self.server = None
+
+    shutdown = kill
+
+
 class LineSim(SubprocessImpl):
     """``mutation(reply) -> Mutation`` replaces the line of every reply at ``target`` (a position, or
     ``*``: every reply)."""
@@ -61,28 +96,12 @@ class LineSim(SubprocessImpl):
         super().__init__("line-sim", timeout, **kw)
         self.target, self.mutation = target, mutation
         self.applied: Mutation | None = None
-        self.server: Server | None = None
         self.positions = _Positions()
 
     def _open(self) -> None:
         if self.restarts > self.max_restarts:
             raise ProtocolError("gave_up", f"gave up after {self.max_restarts} restarts of `{self.spec}`")
-        self.server, self._lines, self.positions = Server(), queue.Queue(), _Positions()
-
-    def _send(self, msg: dict[str, Any]) -> None:
-        if self.server is None:
-            raise ProtocolError("eof", "the simulator is not running")
-        msg = json.loads(json.dumps(msg))
-        reply = self.server.handle(msg)
-        data = compact_bytes(reply)
-        if self.target in (self.positions.of(msg), "*") and self.mutation is not None:
-            self.applied = self.mutation(reply)
-            data = self.applied.data
-        for line in data.split(b"\n"):
-            self._lines.put(line + b"\n")
-
-    def _shutdown(self) -> None:
-        self.server = None
+        self.process, self.positions = _ServerLines(self), _Positions()
 
 
 def main() -> int:
