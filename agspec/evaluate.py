@@ -31,7 +31,6 @@ from agspec.policy.episode import (
 from agspec.policy.host import PolicyHosts
 from agspec.policy.stats import mean_ci
 
-
 # F-POLICY-HOST: policies whose code runs in the worker's Python (user factories, trained checkpoints)
 HOSTED_KINDS = ("python", "checkpoint")
 

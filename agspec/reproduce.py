@@ -16,8 +16,8 @@ from typing import Any, Callable
 
 from agspec.campaign.executor import ExecutorSpec
 from agspec.evaluate import evaluate
-from agspec.policy.stats import mean_ci
 from agspec.formats.schemas import self_check
+from agspec.policy.stats import mean_ci
 
 FINAL_TEST = range(1000, 1050)
 MATCHED = range(0, 50)

@@ -25,7 +25,7 @@ sys.path.insert(0, str(HERE / "fakes"))
 
 from agspec.conform import runner  # noqa: E402
 from agspec.conform.items import Item  # noqa: E402
-from agspec.conform.lockstep import Options  # noqa: E402
+from agspec.conform.run_item import Options  # noqa: E402
 from agspec.formats.report import read_report  # noqa: E402
 
 from line_sim import POSITIONS, LineSim  # noqa: E402

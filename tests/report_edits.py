@@ -152,7 +152,7 @@ def releasing_despite_stock() -> Iterator[None]:
 def stock_replies() -> tuple[dict[str, Any], dict[str, Any]]:
     """(the reference's reply, the original-like reply) to the step where the reference loses the release."""
     from agspec.conform.cases import load_suite
-    from agspec.conform.serve import Server
+    from agspec.conform.impl.serve import Server
 
     case = next(c for c in load_suite() if STOCK_CASE in c.title)
 
@@ -205,7 +205,7 @@ def _changed(value: Any) -> Any:
 @st.composite
 def stock_failures(draw) -> tuple[dict, dict, list[str], str | None]:
     """(expected reply, actual reply, parts compared, perturbation or None)."""
-    from agspec.conform.compare import behavioural
+    from agspec.conform.lockstep.compare import behavioural
 
     expected, actual = copy.deepcopy(stock_replies()[0]), copy.deepcopy(stock_replies()[1])
     parts = draw(st.sampled_from([["t", "done", "state", "events"], ["t", "done", "state"], ["t", "done", "events"]]))
@@ -237,7 +237,7 @@ def stock_failures(draw) -> tuple[dict, dict, list[str], str | None]:
 
 def misnamed_stock(expected: dict, actual: dict, parts: list[str], perturbation: str | None) -> str | None:
     """What the harness gets wrong naming the failure (None: named iff nothing else differs)."""
-    from agspec.conform.compare import compare_reply
+    from agspec.conform.lockstep.compare import compare_reply
 
     try:
         from agspec.conform.known import match
@@ -316,7 +316,7 @@ def run_level(case: Any, parts: frozenset[str]) -> Any:
 
     from agspec.conform.impl import PythonImpl
     from agspec.conform.items import from_case
-    from agspec.conform.lockstep import Options, run_item
+    from agspec.conform.run_item import Options, run_item
 
     sys.path.insert(0, str(ROOT / "tests" / "fakes"))
     from level_adapter import Declares

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agspec.cli.main import cli
-from agspec.conform.compare import _canonical, _same_text, compare_reply
+from agspec.conform.lockstep.compare import _canonical, _same_text, compare_reply
 from agspec.formats.pointer import first_difference
 
 SERVE = shutil.which("agspec")

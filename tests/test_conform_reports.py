@@ -23,11 +23,11 @@ import report_edits as R
 from agspec.trace.check import trace_diag
 from agspec.conform import runner
 from agspec.conform.cases import load_suite
-from agspec.conform.compare import compare_reply, reply_name
+from agspec.conform.lockstep.compare import compare_reply, reply_name
 from agspec.conform.expect import Expected
 from agspec.conform.impl import PythonImpl
 from agspec.conform.items import catalogue_episodes, from_case
-from agspec.conform.lockstep import Options
+from agspec.conform.run_item import Options
 from agspec.formats import divergences
 from agspec.formats.report import read_report
 from agspec.trace.verify import verify
@@ -106,7 +106,7 @@ def test_the_events_of_a_reply_whose_state_differs_first_are_aligned_too():
 def test_diff_shrinks_and_saves_an_event_divergence_by_its_kind():
     """`agspec diff` keeps what differs (a missing support) while shrinking, and its saved case asserts
     the missing event itself."""
-    from agspec.conform.shrink import expectation
+    from agspec.conform.explore.shrink import expectation
 
     support = {"type": "support", "robot": "0,1", "candidate": "op:0:fit:0,0;0,1"}
     created = {"type": "proposal_created", "candidate": "op:0:fit:0,0;0,1", "expires_at": 4}

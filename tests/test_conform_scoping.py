@@ -22,7 +22,7 @@ from agspec.conform import runner
 from agspec.conform.cases import load_suite
 from agspec.conform.impl import SubprocessImpl
 from agspec.conform.items import catalogue_episodes, from_case
-from agspec.conform.lockstep import DECLINE_HINT
+from agspec.conform.run_item import DECLINE_HINT
 from agspec.formats.protocol import ProtocolError
 from scoping_cases import NAMES, scripted, small_items
 

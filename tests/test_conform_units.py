@@ -10,12 +10,12 @@ import pytest
 from jsonschema import Draft202012Validator
 
 from agspec.formats import protocol
-from agspec.conform.compare import MISSING, compare_reply, first_difference
+from agspec.conform.lockstep.compare import MISSING, compare_reply, first_difference
 from agspec.conform.expect import Expected, apply
 from agspec.conform.impl import PythonImpl, ReferenceImpl
 from agspec.formats.protocol import ProtocolError
 from agspec.conform.select import SelectError, compile_filter
-from agspec.conform.serve import Server, serve_stdio
+from agspec.conform.impl.serve import Server, serve_stdio
 from agspec.resources import schemas_dir
 
 

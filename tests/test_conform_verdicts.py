@@ -184,7 +184,7 @@ def test_non_finite_in_an_in_process_reply_is_a_protocol_error(tmp_path):
 
 
 def test_non_finite_in_traces_reproducers_and_expectations(tmp_path):
-    from agspec.conform.compare import ReproError, load_reproducer
+    from agspec.conform.repro import ReproError, load_reproducer
     from agspec.conform.expect import ExpectError, load_expectations
     from agspec.trace.read import read_trace
 
@@ -388,7 +388,7 @@ def test_recomputed_metrics_equal_the_reference_footer_on_every_scenario():
 
 def test_the_suite_covers_every_field_action_class_event_type_and_value_class():
     """F-CONFORM-COVERAGE: a rounded 1/3 must meet a suite case that shows 1/3."""
-    from agspec.conform.values import entries, value_coverage
+    from agspec.conform.coverage.values import entries, value_coverage
 
     cov = value_coverage([from_case(c) for c in load_suite()])
     assert cov["uncovered"] == []
@@ -399,7 +399,7 @@ def test_the_suite_covers_every_field_action_class_event_type_and_value_class():
 
 
 def test_value_classes_are_detected_and_missing_ones_reported():
-    from agspec.conform.values import observe_run
+    from agspec.conform.coverage.values import observe_run
 
     # R-SUPPORT-LIFECYCLE: a record open at its expires_at epoch (0) expires into epoch 1
     states = [{"t": 0, "products": [], "proposals": {"c": {"expires_at": 0, "supporters": ["0,0"]}}},
@@ -440,10 +440,10 @@ def test_diff_states_the_level_it_compared():
 def test_an_illegal_symbolic_action_is_one_behaviour_in_conform_and_diff():
     """F-SYMBOLIC-ACTIONS: an option not offered makes the script invalid in conform and in diff alike
     (never idle on one side and an exception on the other)."""
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
     from agspec.conform.impl import ReferenceImpl
     from agspec.conform.items import Item
-    from agspec.conform.lockstep import Options, run_item
+    from agspec.conform.run_item import Options, run_item
 
     inst = json.loads((HERE / "mutants" / "instances" / "pair-1x2-flat.json").read_text(encoding="utf-8"))
     seed = inst["seeds"]["execution"]

@@ -1,4 +1,4 @@
-"""Differential testing and shrinking (agspec.conform.diff, agspec.conform.shrink, `agspec diff`).
+"""Differential testing and shrinking (agspec.conform.explore.diff, agspec.conform.explore.shrink, `agspec diff`).
 
 The implementations under test are the reference (in process) and the protocol adapter of
 tests/mutants/sim.py, with and without a seeded mutant.
@@ -15,9 +15,9 @@ import pytest
 from click.testing import CliRunner
 
 from agspec.cli.main import cli
-from agspec.conform import diff as D
+from agspec.conform.explore import diff as D
 from agspec.formats import actions
-from agspec.conform import shrink as S
+from agspec.conform.explore import shrink as S
 from agspec.conform.cases import check_reference, lint_suite, load_suite
 
 HERE = Path(__file__).resolve().parent

@@ -25,7 +25,7 @@ from click.testing import CliRunner
 
 from agspec.catalogue import load_scenario_bundle
 from agspec.cli.main import cli
-from agspec.conform.policies import GENE_RANGE, OUT_OF_RANGE, ControllerPolicy, GenePolicy, IllegalActions
+from agspec.conform.lockstep.actions import GENE_RANGE, OUT_OF_RANGE, ControllerPolicy, GenePolicy, IllegalActions
 from agspec.interp.tick import Simulator
 from agspec.ir.instance import make_instance
 

@@ -20,7 +20,7 @@ import pytest
 from agspec.conform import golden, runner
 from agspec.conform.impl import SubprocessImpl, make_impl
 from agspec.conform.items import Item
-from agspec.conform.lockstep import Options
+from agspec.conform.run_item import Options
 from agspec.formats import golden as fmt
 from agspec.formats import jsonl, schemas
 

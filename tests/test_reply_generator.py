@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from agspec.cli.main import cli
-from agspec.conform.serve import Server
+from agspec.conform.impl.serve import Server
 from agspec.formats import reply, shape
 from agspec.formats.report import read_report
 
@@ -157,7 +157,7 @@ def test_a_golden_trace_recorded_in_process_gives_the_live_verdict(tmp_path, nam
     passes each through the one decoder itself), the golden trace changes no verdict either."""
     from agspec.conform import runner
     from agspec.conform.impl import ReferenceImpl
-    from agspec.conform.lockstep import Options
+    from agspec.conform.run_item import Options
 
     cache = str(tmp_path / "golden")
     reference = ReferenceImpl()

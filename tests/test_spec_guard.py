@@ -100,5 +100,5 @@ def test_planted_issue_number_and_missing_file_are_reported(copy_root):
     _edit(copy_root / "agspec" / "conform" / "driver.py", '"""The one lockstep driver',
           '"""(issue 12; see docs/lockstep.md) The one lockstep driver')
     found = G.stale_references(copy_root)
-    assert any("agspec/conform/driver.py:1: names an issue" in f for f in found)
+    assert any("agspec/conform/lockstep/driver.py:1: names an issue" in f for f in found)
     assert any("names a missing file docs/lockstep.md" in f for f in found)

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from agspec.catalogue import load_instance
 from agspec.cli.main import cli
-from agspec.conform.serve import Server
+from agspec.conform.impl.serve import Server
 from agspec.controllers import make_controller
 from agspec.formats.actions import OP0
 from agspec.interp import geometry, rules

@@ -16,7 +16,7 @@ import pytest
 
 from agspec.catalogue import load_instance
 from agspec.invariants.context import Context
-from agspec.conform.policies import ControllerPolicy
+from agspec.conform.lockstep.actions import ControllerPolicy
 from agspec.controllers import make_controller
 from agspec.controllers.base import grid_key, routes
 from agspec.dsl.build import compile_text

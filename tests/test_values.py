@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from agspec.trace.check import check_file
 from agspec.cli.main import cli
 from agspec.conform import runner
-from agspec.conform.lockstep import Options
+from agspec.conform.run_item import Options
 from agspec.formats import shape as shape_module
 from agspec.formats.shape import ShapeError, compile_shape
 from agspec.formats.trace import read_records, values_of

@@ -10,7 +10,7 @@ import json
 import pytest
 
 from agspec.catalogue import load_scenario_bundle
-from agspec.conform import variant_space as V
+from agspec.conform.coverage import variants as V
 from agspec.conform.cases import load_suite
 from agspec.conform.items import default_run, from_case
 from agspec.ir import topology, variants

@@ -16,7 +16,13 @@ from __future__ import annotations
 
 import random
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    BrokenExecutor,
+    Future,
+    ProcessPoolExecutor,
+    wait,
+)
 from multiprocessing.util import Finalize
 from typing import Any, Callable, Iterator, Sequence
 
@@ -33,7 +39,6 @@ from agspec.campaign.task import (
     Task,
     describe,
 )
-
 
 # --------------------------------------------------------------------------- local backends
 

@@ -23,7 +23,6 @@ from agspec.checkpoint import nets
 from agspec.checkpoint.files import CheckpointError, load_policy_file
 from agspec.checkpoint.rundir import POLICY
 
-
 SAMPLE_SUFFIX = "#sample"
 FINAL_EPSILON = 0.05  # T-QMIX-EXPLORATION: the behaviour policy's ε once the schedule has ended
 

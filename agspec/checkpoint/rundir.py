@@ -19,8 +19,8 @@ import os
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
-from agspec.formats.limits import InputError, load_json
 from agspec.formats.digest import file_sha256
+from agspec.formats.limits import InputError, load_json
 
 RUN_SCHEMA = "agspec-training-run/1"
 CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (

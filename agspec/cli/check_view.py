@@ -12,13 +12,25 @@ import sys
 import time
 from typing import Any, Sequence
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
-from agspec.trace.check import EXIT_HARNESS, check_file, exit_code, expand
-from agspec.campaign.executor import Done, ExecutorError, ExecutorSpec, Task, run_ordered
+from agspec.campaign.executor import (
+    Done,
+    ExecutorError,
+    ExecutorSpec,
+    Task,
+    run_ordered,
+)
 from agspec.cli.common import emit_json, fail, stderr, stdout
 from agspec.formats.schemas import self_check
+from agspec.trace.check import EXIT_HARNESS, check_file, exit_code, expand
 
 VERDICT = {0: "[green]ok[/]", 1: "[bold red]fails[/]", 2: "[bold red]unreadable[/]", 3: "[bold magenta]error[/]"}
 COUNTED = {0: "ok", 1: "failed", 2: "unreadable", 3: "error"}

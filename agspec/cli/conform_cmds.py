@@ -12,10 +12,23 @@ from typing import Any
 import click
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
+from agspec.cli.common import (
+    EXIT_INVALID,
+    EXIT_OK,
+    EXIT_USAGE,
+    FORMAT_OPTION,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
-from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
-
+from agspec.cli.grammar import (
+    exitfirst_option,
+    horizon_option,
+    output_option,
+    timeout_option,
+)
 
 # =============================================================================================== conform
 
@@ -123,7 +136,7 @@ def serve(observations: bool, masks: bool) -> None:
     """Run the reference interpreter as an F-PROTOCOL simulator on stdin/stdout (JSON Lines)."""
     import io
 
-    from agspec.conform.serve import Server, serve_stdio
+    from agspec.conform.impl.serve import Server, serve_stdio
 
     stdin = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
     raise SystemExit(serve_stdio(stdin, sys.stdout, Server(observations=observations, masks=masks)))

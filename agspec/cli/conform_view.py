@@ -11,14 +11,28 @@ import sys
 import time
 from typing import Any, Mapping, Sequence
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
-from agspec.conform.lockstep import LEVEL_PARTS
+from agspec.cli.common import (
+    EXIT_INVALID,
+    EXIT_OK,
+    EXIT_USAGE,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
+from agspec.conform.coverage.values import EVENT_RULES
+from agspec.conform.run_item import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
-from agspec.conform.values import EVENT_RULES
 
 MAX_SHOWN = 20  # failure blocks printed in table mode
 
@@ -45,7 +59,7 @@ def build_items(impl_spec: str | None, replay_path: str | None, no_suite: bool, 
     from agspec.conform.items import catalogue_episodes, default_run, from_reproducer
 
     if replay_path:
-        from agspec.conform.compare import ReproError, load_reproducer
+        from agspec.conform.repro import ReproError, load_reproducer
 
         try:
             data = load_reproducer(replay_path)
@@ -83,7 +97,7 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
             repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str,
             require: Sequence[str] = (), golden_dir: str | None = None):
     from agspec.conform.impl import ImplSpecError, make_impl
-    from agspec.conform.lockstep import Options
+    from agspec.conform.run_item import Options
     from agspec.conform.runner import run
     from agspec.transport.teardown import exit_on_signals
 
@@ -219,9 +233,9 @@ def json_summary(summary) -> dict[str, Any]:
 
 def show_coverage(suite_dir: str | None, fmt: str, episodes: int, ticks: int) -> int:
     from agspec.conform.cases import coverage
+    from agspec.conform.coverage.values import value_coverage
+    from agspec.conform.coverage.variants import entries, variant_coverage
     from agspec.conform.items import default_run, from_case
-    from agspec.conform.values import value_coverage
-    from agspec.conform.variant_space import entries, variant_coverage
 
     cases = _load_suite(suite_dir)
     cov = coverage(cases)
@@ -248,7 +262,7 @@ def show_coverage(suite_dir: str | None, fmt: str, episodes: int, ticks: int) ->
             for ident, ids in cov[group].items():
                 n = len(ids)
                 table.add_row(ident, titles.get(ident, ""), str(n) if n else "[bold red]0[/]")
-        from agspec.conform.values import VALUE_CLASSES
+        from agspec.conform.coverage.values import VALUE_CLASSES
 
         for entry, ids in cov.get("values", {}).items():
             n = len(ids)
@@ -293,10 +307,15 @@ def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table
 
 
 def check_trace_command(path: str, fmt: str) -> int:
-    from agspec.trace.check import diag_record, paired_records, report_record
     from agspec.cli.check_view import timing
     from agspec.invariants import INVARIANT_IDS, check_trace
-    from agspec.trace.check import trace_diag, verify_whole
+    from agspec.trace.check import (
+        diag_record,
+        paired_records,
+        report_record,
+        trace_diag,
+        verify_whole,
+    )
     from agspec.trace.read import read_trace
 
     records, diags = read_trace(path)

@@ -9,16 +9,36 @@ from typing import Any
 import click
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError, parse_indices
-from agspec.cli.common import (EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, emit_json,
-                               fail, stderr, stdout)
+from agspec.catalogue import (
+    CatalogueError,
+    InvalidDocumentError,
+    InvalidInstanceError,
+    parse_indices,
+)
+from agspec.cli.common import (
+    EXIT_HARNESS,
+    EXIT_INVALID,
+    EXIT_OK,
+    EXIT_USAGE,
+    FORMAT_OPTION,
+    SEED_RANGE,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
 from agspec.cli.executor_opts import executor_options
-from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
-from agspec.conform.compare import reply_name
-from agspec.conform.lockstep import LEVEL_PARTS
+from agspec.cli.grammar import (
+    exitfirst_option,
+    horizon_option,
+    output_option,
+    timeout_option,
+)
+from agspec.conform.lockstep.compare import reply_name
+from agspec.conform.run_item import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
-from agspec.transport.teardown import exit_on_signals
 from agspec.formats import limits
+from agspec.transport.teardown import exit_on_signals
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
@@ -78,7 +98,7 @@ def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_r
     the saved counterexample are the same as with -j 1 (CAMP-IDENTICAL). Shrinking and the
     hypothesis search run in this process.
     """
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
 
     ticks, impl_timeout, out_dir, keep_going = horizon, timeout, Path(output), not exitfirst
     try:
@@ -183,7 +203,7 @@ def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_r
 
 
 def _open_pair(impls, timeout: float):
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
 
     try:
         return D.open_pair(impls[0], impls[1], timeout=timeout)
@@ -195,8 +215,8 @@ def _open_pair(impls, timeout: float):
 
 def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, any_divergence: bool, log,
                     quiet: bool) -> dict[str, Any]:
-    from agspec.conform import diff as D
-    from agspec.conform import shrink as S
+    from agspec.conform.explore import diff as D
+    from agspec.conform.explore import shrink as S
 
     run, subject = finding.run, finding.subject
     d = run.divergence
@@ -232,7 +252,7 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     path = S.write_case(shrunk, out_dir, stem, title=title, notes=notes, coerced=coerced)
     repro = None
     if final is not None:  # F-REPRO: integer actions, replayable with `agspec conform --replay`
-        from agspec.conform.compare import make_reproducer, save_reproducer
+        from agspec.conform.repro import make_reproducer, save_reproducer
 
         repro = save_reproducer(out_dir, make_reproducer(
             ident=stem, title=title, instance=shrunk.instance, execution_seed=shrunk.execution_seed,
@@ -252,7 +272,7 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
 
 def reproductions(pair, instance, seed, script, divergence, ticks: int | None = None) -> dict[str, Any]:
     """Replay ``script`` REPLAYS times; how often the divergence recurs with the same signature."""
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
 
     seen = []
     for _ in range(REPLAYS):
@@ -283,7 +303,7 @@ def _print_nondeterministic(finding, original: dict[str, Any], final: dict[str, 
 
 def replay_check(pair, shrunk):
     """Replay the shrunk counterexample once more (it must still diverge)."""
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
 
     try:
         return D.replay(pair, shrunk.instance, shrunk.execution_seed, shrunk.script, max(1, shrunk.ticks))
@@ -298,7 +318,7 @@ def _slug(text: str) -> str:
 
 def _print_counterexample(pair, finding, shrunk, path: Path, entry: dict[str, Any]) -> None:
     repro = entry["shrunk"].get("reproducer")
-    from agspec.conform import diff as D
+    from agspec.conform.explore import diff as D
 
     d0, d = finding.run.divergence, shrunk.divergence
     stdout.print(f"\n[bold red]divergence[/] on {finding.subject.label} with {finding.policy}: "

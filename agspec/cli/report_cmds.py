@@ -37,9 +37,9 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
         return
     from agspec.cli.evaluate_view import refuse_incomplete
     from agspec.controllers import CONTROLLERS
+    from agspec.extras import MissingExtra
     from agspec.policy.bundle import BundleError, combine, read_bundle
     from agspec.policy.coverage import describe_sets, final_test_only, incomplete
-    from agspec.extras import MissingExtra
     from agspec.policy.stats import compare
     from agspec.policy.tables import latex, layout, markdown
 
@@ -109,9 +109,9 @@ def _checkpoint_rows(data: dict, metric: str, to: str) -> str:
 
 def _training_curves(dirs: tuple[Path, ...], to: str, output: Path | None) -> None:
     """Training run directories -> the paper's training curves (median and IQR over seeds)."""
+    from agspec.checkpoint.rundir import RunDirError
     from agspec.extras import MissingExtra
     from agspec.train.curves import draw, load_runs
-    from agspec.checkpoint.rundir import RunDirError
 
     if not all(p.is_dir() for p in dirs):
         fail("give either results bundles or training run directories, not both")

@@ -7,13 +7,28 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, FORMAT_OPTION, SEED_RANGE, emit_json, fail, stderr, stdout
-from agspec.cli.grammar import horizon_option, timeout_option
+from agspec.cli.common import (
+    EXIT_HARNESS,
+    EXIT_INVALID,
+    FORMAT_OPTION,
+    SEED_RANGE,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
+from agspec.cli.grammar import horizon_option, timeout_option
 from agspec.controllers import CONTROLLERS
 from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT
 
@@ -80,7 +95,11 @@ def which_instance(instance: dict[str, Any]) -> str:
 
 def load_instance(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
     """agspec.catalogue.load_instance with its errors as CLI failures (F-EXIT-CODES)."""
-    from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError
+    from agspec.catalogue import (
+        CatalogueError,
+        InvalidDocumentError,
+        InvalidInstanceError,
+    )
     from agspec.catalogue import load_instance as load
 
     try:
@@ -114,8 +133,8 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
     """Run one episode of SCENARIO (official name or .ag file) or INSTANCE (.json) with a reference controller
     or a policy."""
     from agspec.evaluate import run_episode
-    from agspec.interp.observe import SlotOverflow
     from agspec.formats.trace import TraceWriter
+    from agspec.interp.observe import SlotOverflow
     from agspec.policy.contract import PolicyError, PolicySpecError, parse_policy
 
     try:
@@ -257,7 +276,13 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
 
 def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
     """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
-    from agspec.reproduce import EpisodeFailures, default_plan, ours_text, paper_text, run_paper
+    from agspec.reproduce import (
+        EpisodeFailures,
+        default_plan,
+        ours_text,
+        paper_text,
+        run_paper,
+    )
 
     total = sum(len(indices) for _, _, indices in default_plan())
     show = fmt == "table" and sys.stderr.isatty()

@@ -12,7 +12,15 @@ from typing import Any, Mapping
 
 import click
 
-from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, SEED_RANGE, emit_json, fail, stderr, stdout
+from agspec.cli.common import (
+    EXIT_INVALID,
+    EXIT_USAGE,
+    SEED_RANGE,
+    emit_json,
+    fail,
+    stderr,
+    stdout,
+)
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.cli.grammar import output_option
 
@@ -78,7 +86,13 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
     """
     from agspec.extras import MissingExtra
     from agspec.train.api import scenario_family
-    from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override, resolve
+    from agspec.train.config import (
+        ConfigError,
+        flatten_settings,
+        paper_defaults,
+        parse_override,
+        resolve,
+    )
 
     if campaign_plan is not None:
         from agspec.cli.train_campaign import run_plan
@@ -139,7 +153,13 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
 
 
 def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     from agspec.checkpoint.rundir import RunDirError, refuse_foreign
 
@@ -148,8 +168,8 @@ def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
     except RunDirError as exc:
         fail(str(exc), EXIT_USAGE)
     try:
-        from agspec.train.api import train as train_run
         from agspec.checkpoint.files import CheckpointError
+        from agspec.train.api import train as train_run
     except ImportError as exc:  # the extra is missing: say how to install it (F-EXIT-CODES: usage)
         fail(f"agspec train needs PyTorch ({exc}): pip install 'agspec[train]'", EXIT_USAGE)
     from agspec.train.config import ConfigError

@@ -31,10 +31,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agspec.conform import compare
+from agspec.conform import repro
 from agspec.conform.impl import ImplSpecError, make_impl
 from agspec.conform.items import from_reproducer
-from agspec.conform.lockstep import Options, Result, run_item
+from agspec.conform.run_item import Options, Result, run_item
 
 NONDETERMINISTIC, HISTORY_DEPENDENT, REPRODUCED = "nondeterministic", "history_dependent", "reproduced"
 UNCONFIRMED = "unconfirmed"  # no fresh implementation could be started from the spec: nothing is claimed
@@ -64,7 +64,7 @@ def reproducer_of(first: Result, impl_spec: str, opts: Options, history: bool = 
     tick = (first.failure or {}).get("tick")
     tick = tick if isinstance(tick, int) else len(first.actions_sent) - 1
     expectations = [e for e in item.case.expectations if e["after_tick"] <= tick] if item.case is not None else []
-    return compare.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
+    return repro.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
                                    execution_seed=item.execution_seed, actions=first.actions_sent,
                                    impl=opts.impl_spec or impl_spec, failure=first.failure,
                                    tolerance=opts.tolerance, expectations=expectations,
@@ -197,7 +197,7 @@ def write(path: str | None, data: dict[str, Any]) -> str | None:
         return None
     target = Path(path)
     try:
-        return str(compare.save_reproducer(target.parent, data))
+        return str(repro.save_reproducer(target.parent, data))
     except OSError:
         return None
 

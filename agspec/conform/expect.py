@@ -17,9 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-
-from agspec.formats.schemas import validate
 from agspec.formats import limits
+from agspec.formats.schemas import validate
 
 
 class ExpectError(ValueError):

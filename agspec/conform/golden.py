@@ -25,12 +25,11 @@ from typing import Any, Mapping
 
 import networkx
 
-from agspec.conform import driver
-from agspec.formats import protocol
 from agspec.conform.impl import MATCHED, Implementation, Reply
 from agspec.conform.items import Item
+from agspec.conform.lockstep import driver
 from agspec.formats import golden as fmt
-from agspec.formats import jsonl
+from agspec.formats import jsonl, protocol
 from agspec.formats import reply as reply_format
 from agspec.ir.fingerprint import fingerprint
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 from typing import Any, Mapping, Sequence
 
 from agspec.conform.cases.expectations import event_matches, unmatched_patterns
-from agspec.conform.compare import Divergence, behavioural
-from agspec.conform.eventdiff import differing, event_diff
+from agspec.conform.lockstep.compare import Divergence, behavioural
+from agspec.conform.lockstep.eventdiff import differing, event_diff
 from agspec.formats.divergences import by_scope, expect_entry
 from agspec.formats.pointer import MISSING, iter_differences, resolve
 

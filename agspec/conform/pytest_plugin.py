@@ -24,7 +24,7 @@ Options (group "agspec"):
 Items: one per case (node id = the case id ``c-…``) and per episode (``e-{scenario}-greedy``…), with
 a marker per rule and invariant ID the case exercises (``-m R-HANDOFF``, ``-m "INV-CONSERVATION"``)
 plus ``agspec``, ``agspec_case`` or ``agspec_episode``; ``-k`` matches ids, titles and tags.  Each
-item runs in lockstep with the reference (agspec.conform.lockstep.run_item, exactly what
+item runs in lockstep with the reference (agspec.conform.run_item.run_item, exactly what
 ``agspec conform`` does) and fails with the CommonMark-style divergence report.  One
 implementation process serves the whole session and is restarted after a crash or a hang.
 
@@ -89,10 +89,14 @@ class _State:
     def load(self) -> None:
         from agspec.conform import expect
         from agspec.conform.cases import SuiteError, load_suite
-        from agspec.conform.items import EPISODE_SCENARIOS, catalogue_episodes, from_case
         from agspec.conform.golden import cache_dir
         from agspec.conform.impl import ImplSpecError, make_impl
-        from agspec.conform.lockstep import Options
+        from agspec.conform.items import (
+            EPISODE_SCENARIOS,
+            catalogue_episodes,
+            from_case,
+        )
+        from agspec.conform.run_item import Options
 
         golden_dir = cache_dir(self.config.getoption("agspec_golden_cache"))
         self.opts = Options(impl_spec=self.spec, golden_dir=str(golden_dir) if golden_dir else None)
@@ -179,7 +183,7 @@ class AgspecItem(pytest.Item):
 
     def runtest(self) -> None:
         from agspec.conform import expect
-        from agspec.conform.lockstep import run_item
+        from agspec.conform.run_item import run_item
 
         state = self.state
         result = run_item(self.conform_item, state.implementation(), state.opts)

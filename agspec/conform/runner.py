@@ -1,7 +1,7 @@
 """``agspec conform``: run items against an implementation and decide conformance (F-CONFORM).
 
 ``run`` drives a list of :class:`~agspec.conform.items.Item` (suite cases, catalogue episodes or a
-replay) through :func:`~agspec.conform.lockstep.run_item` on a campaign executor (spec chapter
+replay) through :func:`~agspec.conform.run_item.run_item` on a campaign executor (spec chapter
 14: in this process, local worker processes or Ray actors, each worker with its own
 implementation), applies the expected-failures file, writes the JSONL report incrementally and
 in item order (F-REPORT, CAMP-ORDER) and returns a :class:`Summary` whose ``exit_code`` follows
@@ -10,7 +10,7 @@ expectation, or less proven than ``--require``); 3 harness or protocol error (an
 no failure, or a vacuous run); 5 nondeterministic (the first failure did not reproduce on replay).
 
 The level (F-CONFORM-LEVELS) is what the run compared: the behavioural parts of the replies
-(:data:`~agspec.conform.lockstep.LEVEL_PARTS`) compared at least once, ``full`` when all of them.
+(:data:`~agspec.conform.run_item.LEVEL_PARTS`) compared at least once, ``full`` when all of them.
 """
 
 from __future__ import annotations
@@ -24,11 +24,11 @@ from typing import Any, Callable, Mapping, Sequence
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.conform import confirm, workers
 from agspec.conform import expect as expect_mod
+from agspec.conform.coverage.values import rules_exercised
 from agspec.conform.impl import Implementation, make_impl
 from agspec.conform.items import Item
-from agspec.conform.lockstep import LEVEL_PARTS, Options, Result, run_item
+from agspec.conform.run_item import LEVEL_PARTS, Options, Result, run_item
 from agspec.formats.protocol import PROTOCOL
-from agspec.conform.values import rules_exercised
 from agspec.formats.report import OUTCOMES, ReportWriter, header_record
 
 FAILING = ("fail", "error", "xpass")  # outcomes that count towards -x / --max-fail

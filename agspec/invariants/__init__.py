@@ -37,11 +37,11 @@ from agspec.invariants.checker import (
     REMEMBERING,
     Report,
     check_records,
-    remember_records,
     check_trace,
     check_trace_file,
     parse_trace_text,
     read_trace,
+    remember_records,
 )
 from agspec.invariants.context import INVARIANT_IDS, Context, Violation
 from agspec.invariants.coordination import canonical_roles

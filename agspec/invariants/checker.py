@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
+from agspec.formats.trace import read_records
 from agspec.invariants.context import (
     INVARIANT_IDS,
     TRACE_EMPTY,
@@ -30,8 +31,6 @@ from agspec.invariants.information import (
 )
 from agspec.invariants.material import inv_accounting, inv_conservation, inv_recipe
 from agspec.invariants.space import inv_exclusivity, inv_locality
-from agspec.formats.trace import read_records
-
 
 # --------------------------------------------------------------------------- the checker
 

@@ -9,7 +9,6 @@ from typing import Any, Callable, Mapping
 
 from agspec.ir import topology, variants
 
-
 Json = dict[str, Any]
 
 REACH_TOLERANCE = 1e-9  # G-REACH

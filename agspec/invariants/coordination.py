@@ -15,7 +15,6 @@ from agspec.invariants.context import (
     reporter,
 )
 
-
 # --------------------------------------------------------------------------- INV-SUPPORT
 
 

@@ -4,6 +4,19 @@ from __future__ import annotations
 
 import math
 
+from agspec.formats.actions import (
+    DELIVER,
+    DIRECTION_NAMES,
+    HANDOFF0,
+    IDLE,
+    N_ACTIONS,
+    OP0,
+    OP_SLOTS,
+    PICK0,
+    PICK_SLOTS,
+    RECEIVE0,
+)
+from agspec.formats.actions import describe as _action_name
 from agspec.invariants.context import (
     NEIGHBOUR_FIELDS,
     OBS_FIELDS,
@@ -20,20 +33,6 @@ from agspec.invariants.context import (
     parse_item,
     reporter,
 )
-from agspec.formats.actions import (
-    DELIVER,
-    DIRECTION_NAMES,
-    HANDOFF0,
-    IDLE,
-    N_ACTIONS,
-    OP0,
-    OP_SLOTS,
-    PICK0,
-    PICK_SLOTS,
-    RECEIVE0,
-)
-from agspec.formats.actions import describe as _action_name
-
 
 # --------------------------------------------------------------------------- INV-OBSERVATION
 

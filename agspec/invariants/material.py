@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from agspec.invariants.context import Context, Json, Violation, parse_item, reporter
 
-
 # --------------------------------------------------------------------------- INV-CONSERVATION
 
 

@@ -14,7 +14,6 @@ from agspec.invariants.context import (
     reporter,
 )
 
-
 # --------------------------------------------------------------------------- INV-LOCALITY
 
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from agspec.policy.coverage import Planned
 from agspec.extras import pyplot
+from agspec.policy.coverage import Planned
 from agspec.policy.tables import DIFFICULTIES, INCOMPLETE, Row, display, layout, row_n
 
 PANEL_FAMILIES = ("coalition", "concurrency", "flow")  # the paper's column order

@@ -14,9 +14,9 @@ from __future__ import annotations
 import os
 from typing import Any, Callable, Mapping
 
+from agspec.checkpoint.rundir import RunDirError, is_complete, read_summary
 from agspec.extras import MissingExtra, require_torch
 from agspec.train.config import ConfigError, resolve
-from agspec.checkpoint.rundir import RunDirError, is_complete, read_summary
 
 __all__ = ["ConfigError", "MissingExtra", "RunDirError", "is_complete", "load_policy", "read_summary",
            "resolve_config", "train"]
@@ -24,7 +24,11 @@ __all__ = ["ConfigError", "MissingExtra", "RunDirError", "is_complete", "load_po
 
 def scenario_family(scenario: str) -> str | None:
     """The family of a scenario name or file (T-CURRICULUM's seed offset); ConfigError if unknown."""
-    from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
+    from agspec.catalogue import (
+        CatalogueError,
+        InvalidDocumentError,
+        load_scenario_bundle,
+    )
 
     try:
         ir, _recipes, _profile = load_scenario_bundle(scenario)

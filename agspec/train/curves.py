@@ -14,9 +14,9 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from agspec.checkpoint.rundir import RECORD, RunDirError, read_summary
 from agspec.extras import pyplot
 from agspec.train.record import read_record
-from agspec.checkpoint.rundir import RECORD, RunDirError, read_summary
 
 # the paper's colours (AGQMIX, AGIPPO, AGMAPPO) and names
 COLOURS = {"qmix": "#F9DEAC", "ippo": "#F99B1C", "mappo": "#7A5100"}

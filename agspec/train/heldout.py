@@ -12,8 +12,8 @@ import math
 import statistics
 from typing import Any, Iterable, Mapping
 
-from agspec.policy import published
 from agspec.extras import scipy_stats
+from agspec.policy import published
 
 PAPER_NAMES = {"ippo": "IPPO", "mappo": "MAPPO", "qmix": "QMIX"}
 

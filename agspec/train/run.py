@@ -18,12 +18,12 @@ import numpy as np
 import torch
 
 import agspec
+from agspec.checkpoint import rundir
+from agspec.checkpoint.files import load_checkpoint, save_checkpoint, save_policy
 from agspec.formats.digest import file_sha256
 from agspec.train import config as cfg
-from agspec.checkpoint import rundir
 from agspec.train import curriculum
-from agspec.checkpoint.files import load_checkpoint, save_checkpoint, save_policy
-from agspec.train.record import Record, episode_means, RECORD_SCHEMA
+from agspec.train.record import RECORD_SCHEMA, Record, episode_means
 from agspec.train.rollout import EpisodeStats, make_vector, start_block, vector_mode
 
 Progress = Callable[[Mapping[str, Any]], None]
@@ -170,9 +170,9 @@ class Run:
         save_policy(self.out / rundir.POLICY, self.config, self.digest, self.learner.policy_net(), self.position["steps"])
         if not self.validation:
             return
-        from agspec.policy.episode import run_episode
-        from agspec.policy.contract import PolicySpec
         from agspec.checkpoint.policy import SAMPLE_SUFFIX
+        from agspec.policy.contract import PolicySpec
+        from agspec.policy.episode import run_episode
 
         for action in self.config["validation"]["actions"]:
             target = str(self.out / rundir.POLICY) + (SAMPLE_SUFFIX if action == "sample" else "")

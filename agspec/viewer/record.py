@@ -20,9 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
-from agspec.conform.driver import Pair, Step, applied_actions, lockstep
 from agspec.conform.impl import make_impl
-from agspec.conform.policies import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.driver import Pair, Step, applied_actions, lockstep
 from agspec.formats.trace import TraceWriter
 from agspec.ir.fingerprint import fingerprint
 

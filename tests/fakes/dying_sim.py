@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from agspec.conform.serve import Server
+from agspec.conform.impl.serve import Server
 
 
 class DyingServer(Server):

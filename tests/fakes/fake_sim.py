@@ -3,7 +3,7 @@
 
     python tests/fakes/fake_sim.py MODE [--only SUBSTRING] [--at T]
 
-The simulator is the reference interpreter behind the protocol (agspec.conform.serve.Server), except
+The simulator is the reference interpreter behind the protocol (agspec.conform.impl.serve.Server), except
 that on the ``step`` request applied at epoch ``T`` (default 2) of an instance whose id contains
 SUBSTRING (default: every instance) it misbehaves:
 
@@ -39,7 +39,7 @@ def main() -> int:
     parser.add_argument("--at", type=int, default=2)
     args = parser.parse_args()
 
-    from agspec.conform.serve import Server
+    from agspec.conform.impl.serve import Server
 
     server = Server(observations=False, masks=False)
     out = sys.stdout

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Iterable
 
-from agspec.conform.serve import Server
+from agspec.conform.impl.serve import Server
 
 CAPABILITY = {"state": "privileged_state", "events": "events", "observations": "observations", "masks": "masks"}
 

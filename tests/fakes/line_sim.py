@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from agspec.conform.impl import SubprocessImpl  # noqa: E402
 from agspec.formats.protocol import ProtocolError, loads  # noqa: E402
-from agspec.conform.serve import Server  # noqa: E402
+from agspec.conform.impl.serve import Server  # noqa: E402
 from agspec.formats.jsonl import compact_bytes  # noqa: E402
 
 from reply_mutations import Mutation, mutate  # noqa: E402  (tests/reply_mutations.py)

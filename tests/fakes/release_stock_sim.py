@@ -3,7 +3,7 @@
 
     python tests/fakes/release_stock_sim.py [--no-events] [--no-state]
 
-The reference interpreter behind the protocol (agspec.conform.serve.Server), except that R-RELEASE
+The reference interpreter behind the protocol (agspec.conform.impl.serve.Server), except that R-RELEASE
 checks only the WIP cap: a product is released even when a source row of its raw material is empty,
 as the original release does (spec/10-divergences.md, DIV-RELEASE-STOCK). Everything else follows
 the reference, so the only failure it can show is that divergence. ``--no-events`` and
@@ -16,7 +16,7 @@ import argparse
 import json
 import sys
 
-from agspec.conform.serve import Server
+from agspec.conform.impl.serve import Server
 from agspec.interp import rules
 
 _release = rules.release_product

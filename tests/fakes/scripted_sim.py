@@ -105,7 +105,7 @@ def main() -> int:
     args = parser.parse_args()
     plan = json.loads(args.fail)
 
-    from agspec.conform.serve import Server
+    from agspec.conform.impl.serve import Server
     from agspec.ir.fingerprint import fingerprint
 
     server = Server(observations=False, masks=False)

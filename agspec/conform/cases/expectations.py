@@ -4,10 +4,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import AbstractSet as Set, Any, Mapping, Sequence
+from typing import AbstractSet as Set
+from typing import Any, Mapping, Sequence
 
 from agspec.conform.cases.model import Case, _show_path
-from agspec.conform.compare import is_diagnostic, reply_name
+from agspec.conform.lockstep.compare import is_diagnostic, reply_name
 from agspec.formats.pointer import MISSING, first_difference, iter_differences, show
 from agspec.formats.pointer import resolve as resolve_pointer
 

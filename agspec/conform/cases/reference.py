@@ -8,9 +8,9 @@ from typing import Any, Iterable, Sequence
 
 from agspec.conform.cases.expectations import check_expectations
 from agspec.conform.cases.model import STATE_KEYS, Case, _show_path
-from agspec.conform.driver import Pair, Step, lockstep
 from agspec.conform.impl import ReferenceImpl
-from agspec.conform.policies import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.driver import Pair, Step, lockstep
 from agspec.formats.pointer import MISSING
 from agspec.formats.pointer import parse as parse_pointer
 from agspec.formats.pointer import resolve as resolve_pointer
@@ -18,7 +18,6 @@ from agspec.ir.fingerprint import fingerprint
 from agspec.ir.schemas import validate_schema
 from agspec.ir.validate import errors, validate_instance
 from agspec.spec_index import spec_ids
-
 
 # =============================================================================================
 # running a case on the reference interpreter (used by lint, tests and the reference adapter)

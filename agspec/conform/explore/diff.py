@@ -4,7 +4,7 @@
 seed, sends both the same joint action every tick and compares what they answer — the canonical
 global state (O-GLOBAL-STATE), the events of the tick, the observations and masks when both declare
 the capability, and the end flag — field by field.  The first difference is a :class:`Divergence`
-(tick, JSON Pointer, expected vs actual).  :mod:`agspec.conform.shrink` then reduces the episode to a
+(tick, JSON Pointer, expected vs actual).  :mod:`agspec.conform.explore.shrink` then reduces the episode to a
 minimal counterexample that is printed and saved as a replayable conformance case.
 
 Where the joint actions come from (:class:`Policy`):
@@ -22,7 +22,7 @@ Where the joint actions come from (:class:`Policy`):
   (F-SYMBOLIC-ACTIONS: an option no longer offered makes the replay invalid, not idle).
 
 The lockstep loop, the comparison and the divergence are the conformance harness's own
-(:mod:`agspec.conform.driver`); this module chooses the instances and the policies.
+(:mod:`agspec.conform.lockstep.driver`); this module chooses the instances and the policies.
 
 Instances: catalogue scenarios (suite indices 0, 1, …), instance IR files, and small generated
 instances — each scenario's recipes and profile on a 1..3 x 2..4 grid (:func:`small_instances`).
@@ -43,8 +43,16 @@ from hypothesis.errors import NoSuchExample
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.catalogue import load_scenario_bundle, read_instance_file
-from agspec.conform.compare import Divergence, generalize
-from agspec.conform.driver import (
+from agspec.conform.impl import ImplSpecError, make_impl
+from agspec.conform.lockstep.actions import (
+    GENE_RANGE,
+    ControllerPolicy,
+    GenePolicy,
+    ScriptPolicy,
+    with_illegal,
+)
+from agspec.conform.lockstep.compare import Divergence, generalize
+from agspec.conform.lockstep.driver import (
     ImplementationFailure,
     JointAction,
     Pair,
@@ -54,8 +62,6 @@ from agspec.conform.driver import (
     lockstep,
     robot_order,
 )
-from agspec.conform.impl import ImplSpecError, make_impl
-from agspec.conform.policies import GENE_RANGE, ControllerPolicy, GenePolicy, ScriptPolicy, with_illegal
 from agspec.formats import limits
 from agspec.formats.actions import is_idle
 from agspec.ir.instance import make_instance
@@ -186,7 +192,7 @@ class Finding:
     subject: Subject
     policy: str
     run: Run
-    shrunk: Any = None  # agspec.conform.shrink.Shrunk
+    shrunk: Any = None  # agspec.conform.explore.shrink.Shrunk
 
 
 @dataclass

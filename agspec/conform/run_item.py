@@ -1,6 +1,6 @@
 """Running one item in lockstep with the reference interpreter (F-CONFORM).
 
-For a case, an episode or a replay, the one lockstep driver (:func:`agspec.conform.driver.lockstep`)
+For a case, an episode or a replay, the one lockstep driver (:func:`agspec.conform.lockstep.driver.lockstep`)
 runs the implementation against a private in-process reference (``ReferenceImpl``): tick by tick
 it chooses the joint action (the script, or a controller acting on the *reference's*
 observations), steps both, and after every step
@@ -28,13 +28,14 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from agspec import invariants
-from agspec.conform import compare, driver, golden, known
+from agspec.conform import golden, known, repro
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
-from agspec.formats.divergences import expect_entry
-from agspec.conform.driver import Pair
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.items import Item
-from agspec.conform.policies import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep import compare, driver
+from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.driver import Pair
+from agspec.formats.divergences import expect_entry
 from agspec.formats.protocol import ProtocolError, Unsupported
 
 # F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved
@@ -431,12 +432,12 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
     reproducer = item.location if item.kind == "replay" else None  # a replay is its own reproducer
     if opts.repro_dir and item.kind != "replay":
         expectations = [e for e in item.case.expectations if e["after_tick"] <= t] if item.case is not None else []
-        data = compare.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
+        data = repro.make_reproducer(ident=item.id, title=item.title, instance=item.instance,
                                        execution_seed=item.execution_seed, actions=sent,
                                        impl=opts.impl_spec or impl.spec, failure=failure, tolerance=opts.tolerance,
                                        expectations=expectations)
         try:
-            reproducer = str(compare.save_reproducer(opts.repro_dir, data))
+            reproducer = str(repro.save_reproducer(opts.repro_dir, data))
         except OSError as exc:
             failure["message"] += f" (reproducer not saved: {exc})"
     failure["reproducer"] = reproducer

@@ -1,6 +1,6 @@
 """A simulator process speaking F-PROTOCOL on stdin/stdout (``--impl "CMD ARGS"``; no shell).
 
-The session logic is the shared :class:`~agspec.conform.implementation.Implementation`; the process —
+The session logic is the shared :class:`~agspec.conform.impl.base.Implementation`; the process —
 starting it, reader threads, bounded waits and tearing its whole process group down on every exit
 path — is :class:`agspec.transport.process.LineProcess`.  This module adds what F-PROTOCOL asks of a
 simulator process: pipelined golden replay and the quiet ``stop``.
@@ -11,8 +11,8 @@ from __future__ import annotations
 import shlex
 from typing import Any, Mapping, Sequence
 
-from agspec.conform.implementation import Implementation, ImplSpecError
-from agspec.conform.pipeline import Pipeline
+from agspec.conform.impl.base import Implementation, ImplSpecError
+from agspec.conform.impl.pipeline import Pipeline
 from agspec.formats import protocol
 from agspec.formats.protocol import ProtocolError
 from agspec.transport import process as transport

@@ -10,7 +10,7 @@ and radius, a reason of ``release_lost``).  An item covers an entry when
 * the reference run of the item on the **counterfactual** instance — the same instance with the
   value a hard-coding simulator would read instead (:func:`counterfactual`), driven by the same
   joint actions — gives a reply that differs from the reference's (the comparison of
-  ``agspec conform`` catches that simulator: :func:`agspec.conform.driver.compare_replies`).
+  ``agspec conform`` catches that simulator: :func:`agspec.conform.lockstep.driver.compare_replies`).
 
 For a suite case the entry is also **asserted** when the case's own expectations fail on the
 counterfactual run (a tool that checks only a case's expectations catches it too).  A D-TOPOLOGY
@@ -36,10 +36,10 @@ from functools import lru_cache
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.conform.cases import mismatches
-from agspec.conform.compare import behavioural
-from agspec.conform.driver import Pair, Step, compare_replies, lockstep
 from agspec.conform.impl import ReferenceImpl
-from agspec.conform.policies import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
+from agspec.conform.lockstep.compare import behavioural
+from agspec.conform.lockstep.driver import Pair, Step, compare_replies, lockstep
 from agspec.formats.actions import HANDOFF0, OP0
 from agspec.formats.pointer import MISSING, first_difference, parse
 from agspec.formats.pointer import resolve as resolve_pointer

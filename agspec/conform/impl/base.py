@@ -1,19 +1,18 @@
 """The protocol session every implementation under test shares (F-PROTOCOL): seq numbering, the one
 reply decoder and shape check, schema validation, golden replay, restart and replay of the session
 commands after a failure.  The adapters are in :mod:`agspec.conform.impl` (in process) and
-:mod:`agspec.conform.subprocess_impl` (a simulator process).
+:mod:`agspec.conform.impl.process` (a simulator process).
 """
 
 from __future__ import annotations
 
 from typing import Any, Callable, Mapping, Sequence
 
-from agspec.formats import protocol
-from agspec.formats.protocol import ProtocolError
-from agspec.conform.pipeline import Pipeline
-from agspec.conform.session import Budget, RequestLog
+from agspec.conform.impl.history import Budget, RequestLog
+from agspec.conform.impl.pipeline import Pipeline
 from agspec.formats import golden as golden_format
-from agspec.formats import jsonl
+from agspec.formats import jsonl, protocol
+from agspec.formats.protocol import ProtocolError
 from agspec.transport import peer
 
 Reply = dict[str, Any]

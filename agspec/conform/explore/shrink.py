@@ -1,7 +1,7 @@
 """Shrinking a divergence to a minimal counterexample, and saving it as a replayable case.
 
 Input: an instance, an execution seed, the symbolic joint-action script of an episode on which
-two implementations diverged (:mod:`agspec.conform.diff`), and that divergence.  Output: a
+two implementations diverged (:mod:`agspec.conform.explore.diff`), and that divergence.  Output: a
 :class:`Shrunk` counterexample whose replay still diverges *the same way* — same compared part and
 same JSON Pointer up to the ids and indices in it (:meth:`Divergence.signature`) — with
 
@@ -20,7 +20,7 @@ repeated until nothing changes or the budget (replays, seconds) is spent.
 Why delta debugging here rather than hypothesis: hypothesis shrinks what *it* generated and cannot
 start from a given counterexample, which is what a controller episode produces.  Sequences that
 hypothesis generates itself (``agspec diff --hypothesis-examples``) are shrunk by hypothesis first
-(:func:`agspec.conform.diff.hypothesis_search`) and only polished here.
+(:func:`agspec.conform.explore.diff.hypothesis_search`) and only polished here.
 
 :func:`to_case` turns the result into a conformance case (schemas/case.schema.json): the inline
 instance, the seed, the symbolic script and one expectation — the expected side's value at the
@@ -40,9 +40,17 @@ from typing import Any, Callable, Mapping, Sequence
 
 import yaml
 
-from agspec.conform.compare import MISSING as _MISSING
-from agspec.conform.diff import Divergence, JointAction, Pair, Run, is_idle, non_idle, replay
-from agspec.conform.eventdiff import differing
+from agspec.conform.explore.diff import (
+    Divergence,
+    JointAction,
+    Pair,
+    Run,
+    is_idle,
+    non_idle,
+    replay,
+)
+from agspec.conform.lockstep.compare import MISSING as _MISSING
+from agspec.conform.lockstep.eventdiff import differing
 from agspec.ir.schemas import validate_schema
 from agspec.ir.validate import errors, validate_instance
 

@@ -3,7 +3,7 @@
 :class:`Server` answers protocol messages (dicts) with the reference interpreter; ``serve_stdio``
 runs it over JSON Lines on stdin/stdout.  ``agspec conform --impl "agspec serve"`` therefore
 exercises the whole protocol, and simulator authors have a live peer to test their client code
-against.  ``python:agspec.conform.serve:Server`` is the same server as an in-process adapter.
+against.  ``python:agspec.conform.impl.serve:Server`` is the same server as an in-process adapter.
 
 Robustness (F-PROTOCOL): a malformed request gets an error reply, never a crash — a line that is not
 JSON (``bad_json``), not an object or without a known ``cmd`` (``bad_request``, ``unknown_cmd``),
@@ -20,8 +20,8 @@ import traceback
 from typing import IO, Any, Mapping
 
 from agspec import __version__
-from agspec.formats.protocol import PROTOCOL, encode, error_reply, loads
 from agspec.formats.jsonl import compact_bytes
+from agspec.formats.protocol import PROTOCOL, encode, error_reply, loads
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator

@@ -1,4 +1,4 @@
-"""Where the joint actions of a lockstep episode come from (the policies of :mod:`agspec.conform.driver`).
+"""Where the joint actions of a lockstep episode come from (the policies of :mod:`agspec.conform.lockstep.driver`).
 
 A policy answers ``act(t, observations, robots, simulator) -> {robot: action}`` for epoch ``t``;
 ``observations`` are the driving side's (see the driver), ``simulator`` the reference interpreter

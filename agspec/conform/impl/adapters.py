@@ -1,22 +1,6 @@
-"""Implementations under test: one Python interface, three adapters (F-PROTOCOL).
+"""The in-process adapters (``python:``, the reference) and :func:`make_impl`, which reads ``--impl`` (F-PROTOCOL).
 
-``--impl reference``                 :class:`ReferenceImpl`, the built-in interpreter, in process;
-``--impl python:pkg.module:factory`` :class:`PythonImpl`; ``factory()`` returns an object with
-                                     ``handle(msg) -> reply`` taking and returning the protocol's
-                                     messages as dicts (``pkg.module`` may also be a ``.py`` path);
-``--impl "CMD ARGS"``                :class:`SubprocessImpl`, a process speaking JSON Lines on
-                                     stdin/stdout (``shlex.split``, never a shell).
-
-Every adapter offers ``start() -> info``, ``load(instance)``, ``reset(seed) -> reply``,
-``step(actions) -> reply`` and ``close()``; a reply is a dict with ``t``, ``state``, ``events`` and,
-as declared by the capabilities, ``observations``, ``masks``, ``done`` and ``applied``.  Failures
-raise :class:`~agspec.formats.protocol.ProtocolError` (category ``crash``, ``timeout`` or
-``protocol``; F-PROTOCOL-ERRORS).  After a failure the adapter restarts on next use and replays its
-session commands (``start``, then ``load`` of the current instance), as Bowtie does, so one crashing
-or hanging case never takes the following ones down.
-
-The shared session logic is :mod:`agspec.conform.implementation`, the process adapter
-:mod:`agspec.conform.subprocess_impl`; this module holds the in-process adapters and ``make_impl``.
+The face of this package, :mod:`agspec.conform.impl`, says what every adapter offers.
 """
 
 from __future__ import annotations
@@ -26,20 +10,12 @@ import shlex
 import traceback
 from typing import Any, Callable
 
-from agspec.conform.implementation import (  # noqa: F401 - MATCHED, MessageHook, Reply: the names importers use
-    MATCHED,
-    Implementation,
-    ImplSpecError,
-    MessageHook,
-    Reply,
-)
-from agspec.formats.protocol import ProtocolError
-from agspec.conform.serve import Server
-from agspec.conform.subprocess_impl import SubprocessImpl
+from agspec.conform.impl.base import Implementation, ImplSpecError, MessageHook
+from agspec.conform.impl.process import SubprocessImpl
+from agspec.conform.impl.serve import Server
 from agspec.formats import reply as reply_format
+from agspec.formats.protocol import ProtocolError
 from agspec.transport.factory import FactoryError, load_factory
-
-
 
 # ============================================================================================ in process
 
@@ -90,7 +66,7 @@ class PythonImpl(Implementation):
 
 
 class ReferenceImpl(PythonImpl):
-    """The built-in reference interpreter (:class:`agspec.conform.serve.Server`), in process."""
+    """The built-in reference interpreter (:class:`agspec.conform.impl.serve.Server`), in process."""
 
     def __init__(self, *, observations: bool = True, masks: bool = True, **kw: Any):
 
@@ -127,4 +103,4 @@ def make_impl(spec: str, *, timeout: float = 5.0, validate: bool = False,
     return SubprocessImpl(spec, timeout, validate=validate, on_message=on_message)
 
 
-__all__ = ["Implementation", "PythonImpl", "ReferenceImpl", "SubprocessImpl", "ImplSpecError", "make_impl", "Reply"]
+__all__ = ["PythonImpl", "ReferenceImpl", "make_impl"]

@@ -7,7 +7,7 @@
 A divergence is reported CommonMark-style (``render_divergence``): the reply it is in
 (:func:`reply_name`, one wording everywhere), the compared part and the JSON Pointer of the first
 differing field, expected vs actual, the events of that reply aligned as sequences (F-EVENT-DIFF,
-:mod:`agspec.conform.eventdiff`), the joint actions of the last ticks up to that reply with the
+:mod:`agspec.conform.lockstep.eventdiff`), the joint actions of the last ticks up to that reply with the
 events of the ticks before it, and a reproducer file (instance + execution seed + the action prefix up to the diverging
 tick + the implementation command) that ``agspec conform --replay FILE`` re-runs (F-REPRO).
 """
@@ -18,18 +18,25 @@ import json
 import marshal
 import re
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from agspec import __version__
-from agspec.conform.eventdiff import describe_row, differing, event_diff, event_summary, render_event_diff
-from agspec.formats import limits
+from agspec.conform.lockstep.eventdiff import (
+    describe_row,
+    differing,
+    event_diff,
+    event_summary,
+    render_event_diff,
+)
 from agspec.formats.actions import describe as describe_action
-from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
-from agspec.formats.schemas import self_check
-from agspec.ir.schemas import validate_schema
+from agspec.formats.pointer import (
+    MISSING,
+    escape,
+    first_difference,
+    iter_differences,
+    show,
+    to_json,
+)
 
-REPRO_FORMAT = "agspec-repro/1"
 # The parts of a reset/step reply, in the order they are compared.
 COMPARED = ("t", "state", "events", "observations", "masks", "applied", "done")
 
@@ -123,7 +130,7 @@ class Divergence:
     state, e.g. ``/robots/0,1/holding``; for ``events`` the index of the event in the expected list —
     in the actual list for an extra event — and the differing field); ``more``: further differing
     pointers of the same reply (at most 10); ``events``: the two event lists of the reply aligned as
-    sequences (F-EVENT-DIFF, :func:`agspec.conform.eventdiff.event_diff`) whenever they were
+    sequences (F-EVENT-DIFF, :func:`agspec.conform.lockstep.eventdiff.event_diff`) whenever they were
     compared and differ, whatever part differed first.
     """
 
@@ -304,136 +311,7 @@ def render_divergence(title: str, ident: str, div: Divergence, context: Sequence
     return "\n".join(lines)
 
 
-# --------------------------------------------------------------------------- reproducers (F-REPRO)
-
-
-def make_reproducer(*, ident: str, title: str, instance: Mapping[str, Any], execution_seed: int | None,
-                    actions: Sequence[Mapping[str, int]], impl: str, failure: Mapping[str, Any] | None,
-                    tolerance: float | None = None, expectations: Sequence[Mapping[str, Any]] = (),
-                    history: Sequence[tuple[str, Any]] = ()) -> dict[str, Any]:
-    """A self-contained reproducer: re-running ``actions`` from reset reproduces the failure — after the
-    ``history`` requests (F-REPRO: a failure that depends on what the process did before), with the
-    case's ``expectations`` checked."""
-    data = {
-        "format": REPRO_FORMAT,
-        "agspec_version": __version__,
-        "id": ident,
-        "title": title,
-        "impl": impl,
-        "instance": dict(instance),
-        "execution_seed": execution_seed,
-        "actions": [dict(a) for a in actions],
-        "failure": dict(failure) if failure else None,
-        "options": {"tolerance": tolerance},
-    }
-    if expectations:
-        data["expectations"] = [dict(e) for e in expectations]
-    if history:
-        data["history"] = history_record(history)
-    return data
-
-
-def history_record(requests: Sequence[tuple[str, Any]]) -> dict[str, Any]:
-    """F-REPRO ``history``: the requests, each instance written once (``instances``, referenced by index)."""
-    instances: list[Mapping[str, Any]] = []
-    index: dict[int, int] = {}  # id() of an instance dict -> its index (the same object is one instance)
-    out: list[dict[str, Any]] = []
-    for cmd, payload in requests:
-        if cmd == "load":
-            if id(payload) not in index:
-                index[id(payload)] = len(instances)
-                instances.append(payload)
-            out.append({"cmd": "load", "instance": index[id(payload)]})
-        elif cmd == "reset":
-            out.append({"cmd": "reset", "execution_seed": payload})
-        else:
-            out.append({"cmd": "step", "actions": dict(payload)})
-    return {"instances": [dict(i) for i in instances], "requests": out}
-
-
-def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    self_check("repro", data)  # F-SCHEMAS-SELF
-    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
-    path = directory / f"{safe}.repro.json"
-    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",
-                    encoding="utf-8")
-    return path
-
-
-class ReproError(ValueError):
-    """A reproducer file cannot be used: ``exit_code`` 2 when it cannot be read, 1 when its content is
-    invalid (F-EXIT-CODES)."""
-
-    def __init__(self, message: str, exit_code: int = 1) -> None:
-        super().__init__(message)
-        self.exit_code = exit_code
-
-
-def load_reproducer(path: str | Path) -> dict[str, Any]:
-    """Read and check a reproducer file (F-REPRO); errors name the file and the offending field."""
-    path = Path(path)
-    try:  # F-LIMITS: bounded, located reading
-        data = limits.load_json(path)
-    except limits.InputError as exc:
-        raise ReproError(str(exc), exc.exit_code) from None
-    if not isinstance(data, dict) or data.get("format") != REPRO_FORMAT:
-        raise ReproError(f"{path}: not a reproducer (expected \"format\": \"{REPRO_FORMAT}\")")
-    inst = data.get("instance")
-    if not isinstance(inst, dict) or inst.get("kind") != "instance":
-        raise ReproError(f"{path}: /instance must be an instance IR")
-
-    problems = [i for i in validate_schema(inst) if i.severity == "error"]
-    if problems:
-        raise ReproError(f"{path}: /instance{problems[0].pointer}: {problems[0].message} [{problems[0].code}]")
-    actions = data.get("actions")
-    if not isinstance(actions, list) or not all(
-        isinstance(a, dict) and all(isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool)
-                                    for k, v in a.items()) for a in actions):
-        raise ReproError(f"{path}: /actions must be a list of joint actions {{robot id: integer}}")
-    seed = data.get("execution_seed")
-    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
-        raise ReproError(f"{path}: /execution_seed must be an integer or null")
-    exps = data.get("expectations", [])
-    if not isinstance(exps, list) or not all(isinstance(e, dict) and isinstance(e.get("after_tick"), int)
-                                             for e in exps):
-        raise ReproError(f"{path}: /expectations must be a list of case expectations with `after_tick`")
-    _check_history(path, data.get("history"))
-    return data
-
-
-def _check_history(path: Path, history: Any) -> None:
-    """F-REPRO ``history``: ``{"instances": [instance IR...], "requests": [{"cmd": load|reset|step, ...}]}``."""
-    if history is None:
-        return
-    if not isinstance(history, dict) or not isinstance(history.get("instances"), list) \
-            or not isinstance(history.get("requests"), list):
-        raise ReproError(f"{path}: /history must be {{\"instances\": [...], \"requests\": [...]}}")
-    for k, inst in enumerate(history["instances"]):
-        if not isinstance(inst, dict) or inst.get("kind") != "instance":
-            raise ReproError(f"{path}: /history/instances/{k} must be an instance IR")
-        problems = [i for i in validate_schema(inst) if i.severity == "error"]
-        if problems:
-            raise ReproError(f"{path}: /history/instances/{k}{problems[0].pointer}: {problems[0].message} "
-                             f"[{problems[0].code}]")
-    n = len(history["instances"])
-    for k, req in enumerate(history["requests"]):
-        cmd = req.get("cmd") if isinstance(req, dict) else None
-        ok = (cmd == "load" and isinstance(req.get("instance"), int) and not isinstance(req.get("instance"), bool)
-              and 0 <= req["instance"] < n) \
-            or (cmd == "reset" and (req.get("execution_seed") is None
-                                    or (isinstance(req.get("execution_seed"), int)
-                                        and not isinstance(req.get("execution_seed"), bool)))) \
-            or (cmd == "step" and isinstance(req.get("actions"), dict)
-                and all(isinstance(v, int) and not isinstance(v, bool) for v in req["actions"].values()))
-        if not ok:
-            raise ReproError(f"{path}: /history/requests/{k} must be a load (instance index), reset or step request")
-
-
 __all__ = [
     "COMPARED", "MISSING", "Divergence", "first_difference", "iter_differences", "compare_reply", "render_divergence",
-    "event_summary", "action_summary", "render_context", "reply_name", "make_reproducer", "save_reproducer", "load_reproducer", "ReproError",
-    "history_record",
-    "REPRO_FORMAT", "show", "to_json", "escape", "generalize", "DIAGNOSTIC_FIELDS", "behavioural", "is_diagnostic",
+    "event_summary", "action_summary", "render_context", "reply_name", "show", "to_json", "escape", "generalize", "DIAGNOSTIC_FIELDS", "behavioural", "is_diagnostic",
 ]

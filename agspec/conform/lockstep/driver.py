@@ -17,8 +17,8 @@ Failures: an implementation that crashes, times out or breaks the protocol ends 
 action that cannot be resolved (F-SYMBOLIC-ACTIONS) ends it with ``Run.invalid``.
 
 Callers: ``agspec conform`` items — suite cases, catalogue episodes, ``--replay``, the pytest
-plugin — through :func:`agspec.conform.lockstep.run_item`; ``agspec diff`` and its shrink replays
-through :mod:`agspec.conform.diff`; the viewer's recording (:mod:`agspec.viewer.record`).
+plugin — through :func:`agspec.conform.run_item.run_item`; ``agspec diff`` and its shrink replays
+through :mod:`agspec.conform.explore.diff`; the viewer's recording (:mod:`agspec.viewer.record`).
 """
 
 from __future__ import annotations
@@ -26,7 +26,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Protocol, Sequence
 
-from agspec.conform.compare import MISSING, Divergence, behavioural, compare_reply
+from agspec.conform.lockstep.compare import (
+    MISSING,
+    Divergence,
+    behavioural,
+    compare_reply,
+)
 from agspec.formats.actions import IDLE, N_ACTIONS, IllegalAction, option_ids, symbolic
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint
@@ -53,7 +58,7 @@ Observer = Callable[[Step], bool]  # True: stop the run
 
 
 class Policy(Protocol):
-    """Where the joint actions come from (:mod:`agspec.conform.policies`)."""
+    """Where the joint actions come from (:mod:`agspec.conform.lockstep.actions`)."""
 
     name: str
     information: str  # "local" or "global" (reads the reference simulator)
@@ -103,7 +108,7 @@ def failure_message(exc: BaseException) -> str:
 
 def compare_replies(tick: int, exp: Mapping[str, Any], act: Mapping[str, Any], parts: Sequence[str],
                     tolerance: float | None = None) -> Divergence | None:
-    """The first difference of two replies over ``parts`` (in :data:`~agspec.conform.compare.COMPARED`
+    """The first difference of two replies over ``parts`` (in :data:`~agspec.conform.lockstep.compare.COMPARED`
     order); the optional fields ``done`` and ``applied`` are compared when both replies carry them."""
     use = [p for p in parts if p not in ("done", "applied")]
     use += [p for p in ("done", "applied") if p in exp and p in act]
