@@ -31,7 +31,7 @@ from typing import Any, Callable, Iterable, Sequence
 from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedInput
 
-from agspec.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
+from agspec.formats.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
 from agspec.formats import limits, positions

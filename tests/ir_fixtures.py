@@ -10,7 +10,7 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from conftest_ir import OFFICIAL_TABLE, abstract_v1, official_recipes, official_scenarios
 
 IR = "agspec-ir/1"

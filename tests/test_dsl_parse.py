@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agspec.diagnostics import Issue, locate
+from agspec.formats.diagnostics import Issue, locate
 from agspec.dsl.build import build, compile_text
 from agspec.dsl.parse import _parser, describe_expected, parse
 

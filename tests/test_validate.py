@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import ir_fixtures as F
 from ir_fixtures import found, xor_recipe
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir.instance import make_instance
 from agspec.ir.validate import (
     errors,

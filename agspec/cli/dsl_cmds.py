@@ -31,7 +31,7 @@ from agspec.cli.common import (
     stderr,
     stdout,
 )
-from agspec.diagnostics import Diagnostic
+from agspec.formats.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
 from agspec.load import Document, Resolver, check_document, io_fault, load_document, resolve_argument
 

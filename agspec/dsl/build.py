@@ -3,8 +3,8 @@
 ``build(source)`` turns a parsed :class:`~agspec.dsl.parse.SourceFile` into the IR of the
 contract (plain JSON, ``ir_version`` "agspec-ir/1") in canonical order, with defaults filled
 in, plus ``srcmap``: JSON Pointer -> (line, col, end_line, end_col) for every IR node that
-came from source text.  Later checks report :class:`~agspec.diagnostics.Issue` objects with
-JSON Pointers; :func:`agspec.diagnostics.locate` places them in the file with this map.
+came from source text.  Later checks report :class:`~agspec.formats.diagnostics.Issue` objects with
+JSON Pointers; :func:`agspec.formats.diagnostics.locate` places them in the file with this map.
 
 Canonical order (F-IR): operations sorted by id; ``inputs``, ``after`` and an operation's
 ``resources`` sorted; XOR groups sorted by id with sorted alternatives.  ``raw``, ``roles``,
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from agspec import IR_VERSION
-from agspec.diagnostics import Diagnostic, Span, json_pointer
+from agspec.formats.diagnostics import Diagnostic, Span, json_pointer
 from agspec.dsl.parse import Atom, DocumentNode, Field, SourceFile, parse
 
 # v1 defaults: paper table "Constants shared by the official configurations" (abstract-v1).

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from decimal import Decimal
 from typing import Any, Iterable, Mapping, Sequence
 
-from agspec.diagnostics import Diagnostic
+from agspec.formats.diagnostics import Diagnostic
 from agspec.dsl.build import PROFILE_DEFAULTS, build
 from agspec.dsl.parse import keywords, parse
 

@@ -2,7 +2,7 @@
 
 ``parse(text, file)`` never raises on user input.  It returns a :class:`SourceFile` whose
 ``document`` is ``None`` when the text has syntax errors; ``diagnostics`` then holds one
-:class:`~agspec.diagnostics.Diagnostic` per error (AG1xx), several per run where recovery
+:class:`~agspec.formats.diagnostics.Diagnostic` per error (AG1xx), several per run where recovery
 is possible.  The recovery, its messages and the AG1xx codes are in :mod:`agspec.dsl.recovery`;
 the LALR parser is built in :mod:`agspec.dsl.grammar`.
 
@@ -37,7 +37,7 @@ from typing import Any
 from lark import Token, Transformer, v_args
 from lark.exceptions import UnexpectedInput
 
-from agspec.diagnostics import Diagnostic, Span
+from agspec.formats.diagnostics import Diagnostic, Span
 from agspec.dsl.grammar import _parser, keywords
 from agspec.dsl.recovery import MAX_ERRORS, _Recovery, _span_of, describe_expected
 

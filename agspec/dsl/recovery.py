@@ -1,7 +1,7 @@
 """Syntax-error recovery of the DSL parser and its messages (spec F-DSL, F-DIAGNOSTICS).
 
 ``_Recovery`` is the LALR ``on_error`` callback of one :func:`agspec.dsl.parse.parse` call: it
-records one :class:`~agspec.diagnostics.Diagnostic` per error (AG1xx) and repairs the input so
+records one :class:`~agspec.formats.diagnostics.Diagnostic` per error (AG1xx) and repairs the input so
 that parsing goes on.  It uses three repairs, tried in order:
 
 1. a missing ``}`` is inserted when that makes the offending keyword acceptable (AG107);
@@ -34,7 +34,7 @@ from typing import Any, Iterable
 from lark import Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
-from agspec.diagnostics import Diagnostic, Span
+from agspec.formats.diagnostics import Diagnostic, Span
 from agspec.dsl.grammar import keywords
 
 MAX_ERRORS = 20

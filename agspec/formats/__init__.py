@@ -1,7 +1,7 @@
 """The exchange formats of spec chapter 09, implemented once.
 
 This package is the bottom layer of agspec: it imports nothing from the rest of the package but
-``agspec.resources`` and ``agspec.diagnostics``, and everything that reads or writes an exchange
+``agspec.resources`` and ``agspec.formats.diagnostics``, and everything that reads or writes an exchange
 format imports it.
 
 ==================  =================================================================================

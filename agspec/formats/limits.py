@@ -29,7 +29,7 @@ from typing import Any, Iterator, Mapping
 
 import yaml
 
-from agspec.diagnostics import Diagnostic
+from agspec.formats.diagnostics import Diagnostic
 
 # Exit categories of F-EXIT-CODES (mirrored from agspec.cli.common, which sits above this layer).
 EXIT_INVALID = 1

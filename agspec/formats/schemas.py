@@ -21,7 +21,7 @@ from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError, best_match, relevance
 from referencing import Registry, Resource
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.formats.pointer import join as json_pointer
 from agspec.formats.pointer import parse as parse_pointer
 from agspec.resources import schemas_dir

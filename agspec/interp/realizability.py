@@ -37,7 +37,7 @@ from typing import Any, Iterable, Mapping
 
 import networkx as nx
 
-from agspec.diagnostics import Issue, json_pointer
+from agspec.formats.diagnostics import Issue, json_pointer
 from agspec.interp import geometry
 from agspec.ir import topology
 from agspec.ir import validate as V

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.formats.schemas import iter_issues, json_type, load_schema, show_value, validator
 
 KINDS = ("recipe", "profile", "scenario", "instance")

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.formats.pointer import join
 
 

@@ -1,7 +1,7 @@
 """Reading and validating a trace exchange file (F-TRACE) with located errors.
 
 ``read_trace(path)`` returns ``(records, diagnostics)``: the records that parsed, and one
-:class:`~agspec.diagnostics.Diagnostic` per problem, located by line number and JSON Pointer into
+:class:`~agspec.formats.diagnostics.Diagnostic` per problem, located by line number and JSON Pointer into
 the record — never a traceback.  Checks, in order:
 
 * the file can be read (AG001/AG002) and every non-blank line is a JSON object (AG003);
@@ -19,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agspec.diagnostics import Diagnostic
+from agspec.formats.diagnostics import Diagnostic
 from agspec.formats import limits
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.schemas import validate

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Mapping, Sequence
 
-from agspec.diagnostics import Diagnostic
+from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.divergences import by_scope
 from agspec.interp.metrics import percentile
 from agspec.trace.pairing import pair_records

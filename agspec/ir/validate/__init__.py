@@ -2,7 +2,7 @@
 per-route ``material`` checks and the recipe ``view``), ``profile`` (03, PR-*), ``scenario`` and
 ``realization`` (04, S-*), helpers in ``common``; this module dispatches.
 
-Every check returns :class:`~agspec.diagnostics.Issue` values located by a JSON Pointer into the
+Every check returns :class:`~agspec.formats.diagnostics.Issue` values located by a JSON Pointer into the
 IR, so that the CLI can place them in the ``.ag`` source through the source map.  All problems of a
 document are reported in one run; no check raises on malformed input (schema problems are the
 schema's to report, AG2xx — the checks here skip values of the wrong type instead of crashing).
@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir.validate.common import Json, Resolver, _dict, errors
 from agspec.ir.validate.profile import _check_profile_values, validate_profile
 from agspec.ir.validate.realization import validate_instance

@@ -7,7 +7,7 @@ import math
 from dataclasses import replace
 from typing import Any, Iterable, Protocol, Sequence
 
-from agspec.diagnostics import Issue, json_pointer
+from agspec.formats.diagnostics import Issue, json_pointer
 
 
 Json = Any

@@ -12,7 +12,7 @@ from typing import Iterator, Mapping
 
 import networkx as nx
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir.validate.common import MAX_ROUTES, _err, _list, _ptr, _warn
 from agspec.ir.validate.view import _Op, _RecipeView
 

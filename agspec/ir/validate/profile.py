@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from typing import Mapping
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir import variants
 from agspec.ir.validate.common import (
     Json,

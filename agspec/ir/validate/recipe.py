@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import networkx as nx
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir import topology
 from agspec.ir.validate.common import (
     Json,

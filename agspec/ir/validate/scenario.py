@@ -7,7 +7,7 @@ import json
 from functools import lru_cache
 from typing import Mapping
 
-from agspec.diagnostics import Issue
+from agspec.formats.diagnostics import Issue
 from agspec.ir import topology, variants
 from agspec.ir.fingerprint import FingerprintError, fingerprint
 from agspec.resources import catalogue_dir
