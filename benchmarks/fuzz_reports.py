@@ -51,7 +51,7 @@ def fuzz(strategy, check, examples: int) -> tuple[int, list[str]]:
 
 
 def check_events(x):
-    from agspec.conform.compare import compare_reply
+    from agspec.conform.lockstep.compare import compare_reply
 
     expected, actual, edit = x
     return R.misnamed_edit(edit, compare_reply(0, {"events": expected}, {"events": actual}, ["events"]))

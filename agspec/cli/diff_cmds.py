@@ -34,6 +34,7 @@ from agspec.cli.grammar import (
     output_option,
     timeout_option,
 )
+from agspec.conform.confirm import HISTORY_DEPENDENT, NONDETERMINISTIC, REPRODUCED
 from agspec.conform.lockstep.compare import reply_name
 from agspec.conform.run_item import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
@@ -41,7 +42,6 @@ from agspec.formats import limits
 from agspec.transport.teardown import exit_on_signals
 
 DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
-REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of the final counterexample
 
 
 @click.command("diff")
@@ -165,7 +165,8 @@ def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_r
         report["errors"] = [{"instance": subject.label, "error": cause} for subject, cause in exploration.errors]
         report["findings"] = []
         for finding in findings:
-            entry = _report_finding(pair, finding, out_dir, shrink_budget, shrink_seconds, any_divergence, log, quiet)
+            entry = _report_finding(pair, finding, out_dir, shrink_budget, shrink_seconds, any_divergence, log, quiet,
+                                    (impls[0], impls[1]), impl_timeout)
             report["findings"].append(entry)
     finally:
         if here:
@@ -198,7 +199,9 @@ def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_r
         elif not findings:
             stdout.print(summary + "[green]no divergence[/]")
         else:
-            stdout.print(summary + f"[red]{len(findings)} divergent episode(s)[/]")
+            history = sum(1 for e in report["findings"] if e.get("history_dependent"))
+            stdout.print(summary + f"[red]{len(findings)} divergent episode(s)[/]"
+                         + (f", {history} of them history-dependent (F-CONFORM-HISTORY)" if history else ""))
     raise SystemExit(code)
 
 
@@ -214,7 +217,7 @@ def _open_pair(impls, timeout: float):
 
 
 def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, any_divergence: bool, log,
-                    quiet: bool) -> dict[str, Any]:
+                    quiet: bool, impls: tuple[str, str], impl_timeout: float) -> dict[str, Any]:
     from agspec.conform.explore import diff as D
     from agspec.conform.explore import shrink as S
 
@@ -222,12 +225,23 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     d = run.divergence
     entry: dict[str, Any] = {"instance": subject.label, "policy": finding.policy, "divergence": d.to_json(),
                              "ticks": run.ticks, "actions": sum(1 for _ in D.non_idle(run.script))}
-    # F-CONFORM-NONDETERMINISM: the original failure must recur before it is worth shrinking
-    original = reproductions(pair, subject.instance, subject.execution_seed, run.script, d)
-    if original["reproduced"] < original["replays"]:
+    # F-CONFORM-NONDETERMINISM, F-CONFORM-HISTORY: the original failure is judged as `agspec conform` judges
+    # its own — replayed in fresh implementations, alone and then after its processes' history — before
+    # it is worth shrinking
+    # (an implementation that failed a request is a harness error, exit 3, and not judged — as in conform)
+    kind, alone, with_history = (REPRODUCED, [], []) if d.where == "error" else D.judge_divergence(
+        impls, impl_timeout, subject.instance, subject.execution_seed, run.script, d, d.tick + 1, finding.history)
+    original = _reproductions(alone)
+    if kind == NONDETERMINISTIC:
         entry["nondeterministic"] = {"original": original, "final": None}
         if not quiet:
             _print_nondeterministic(finding, original, None)
+        return entry
+    if kind == HISTORY_DEPENDENT:
+        entry["history_dependent"] = _history_dependent(pair, finding, out_dir, original,
+                                                        _reproductions(with_history))
+        if not quiet:
+            _print_history_dependent(finding, entry["history_dependent"])
         return entry
     if budget > 0:
         log(f"  shrinking ({budget} replays / {seconds:.0f} s at most) …")
@@ -236,12 +250,32 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     else:
         shrunk = S.Shrunk(subject.instance, subject.execution_seed, S.trim_script(run.script[: d.tick + 1]), d,
                           original_ticks=max(0, d.tick + 1), original_actions=entry["actions"])
+
+    def judged(candidate) -> tuple[str, list[dict[str, Any]]]:
+        if d.where == "error":
+            return REPRODUCED, []
+        verdict, runs, _ = D.judge_divergence(impls, impl_timeout, candidate.instance, candidate.execution_seed,
+                                              candidate.script, candidate.divergence, max(1, candidate.ticks), None)
+        return verdict, runs
+
+    kind, alone = judged(shrunk)
+    actions = None
+    if kind != REPRODUCED and budget > 0:
+        # shrinking replays in the same processes; a counterexample it found there that a fresh process does
+        # not repeat (it needed that history) is dropped for the original episode, which does (judged above)
+        original_episode = S.Shrunk(subject.instance, subject.execution_seed, S.trim_script(run.script[: d.tick + 1]),
+                                    d, original_ticks=max(0, d.tick + 1), original_actions=entry["actions"],
+                                    checks=shrunk.checks, seconds=shrunk.seconds, instance_notes=[
+                                        "the shrunk counterexample did not diverge in fresh implementations; this is "
+                                        "the original episode (F-CONFORM-HISTORY)"])
+        kind, alone = judged(original_episode)
+        shrunk, actions = original_episode, run.actions[: d.tick + 1]
     finding.shrunk = shrunk
-    final = replay_check(pair, shrunk)
-    coerced = final.coerced > 0 if final is not None else False
-    again = reproductions(pair, shrunk.instance, shrunk.execution_seed, shrunk.script, shrunk.divergence,
-                          max(1, shrunk.ticks))
-    if again["reproduced"] < again["replays"]:
+    final = replay_check(pair, shrunk) if actions is None else None
+    coerced = final.coerced > 0 if final is not None else run.coerced > 0
+    actions = final.actions if final is not None else actions
+    again = _reproductions(alone)
+    if kind != REPRODUCED:
         entry["nondeterministic"] = {"original": original, "final": again}
     title = (f"diff: {pair.expected_label} vs {pair.actual_label}: {shrunk.divergence.where} "
              f"{shrunk.divergence.pointer or ''} {reply_name(shrunk.divergence.tick, short=True)}")
@@ -251,16 +285,16 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     stem = f"diff-{_slug(subject.label)}-t{shrunk.divergence.tick}"
     path = S.write_case(shrunk, out_dir, stem, title=title, notes=notes, coerced=coerced)
     repro = None
-    if final is not None:  # F-REPRO: integer actions, replayable with `agspec conform --replay`
+    if actions is not None:  # F-REPRO: integer actions, replayable with `agspec conform --replay`
         from agspec.conform.repro import make_reproducer, save_reproducer
 
         repro = save_reproducer(out_dir, make_reproducer(
             ident=stem, title=title, instance=shrunk.instance, execution_seed=shrunk.execution_seed,
-            actions=final.actions, impl=pair.other_spec, failure=shrunk.divergence.to_json()))
+            actions=actions, impl=pair.other_spec, failure=shrunk.divergence.to_json()))
     entry["shrunk"] = {"divergence": shrunk.divergence.to_json(), "ticks": shrunk.ticks, "actions": shrunk.actions,
                        "script": shrunk.script, "replays": shrunk.checks, "seconds": round(shrunk.seconds, 3),
                        "instance": shrunk.instance_notes, "budget_exhausted": shrunk.exhausted,
-                       "reproduces": final is not None and final.divergence is not None,
+                       "reproduces": kind == REPRODUCED,
                        "case": str(path), "reproducer": str(repro) if repro else None}
     if not quiet:
         if entry.get("nondeterministic"):
@@ -270,22 +304,38 @@ def _report_finding(pair, finding, out_dir: Path, budget: int, seconds: float, a
     return entry
 
 
-def reproductions(pair, instance, seed, script, divergence, ticks: int | None = None) -> dict[str, Any]:
-    """Replay ``script`` REPLAYS times; how often the divergence recurs with the same signature."""
-    from agspec.conform.explore import diff as D
+def _reproductions(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """F-CONFORM-NONDETERMINISM: fresh replays and how often the divergence recurred (the report's form)."""
+    kept = [{k: v for k, v in r.items() if k != "signature"} for r in runs]
+    return {"replays": len(kept), "reproduced": sum(1 for r in kept if r.get("same")), "runs": kept}
 
-    seen = []
-    for _ in range(REPLAYS):
-        try:
-            run = D.replay(pair, instance, seed, script, ticks if ticks is not None else divergence.tick + 1)
-            got = run.divergence
-        except Exception as exc:  # a replay that cannot even run is not a reproduction
-            seen.append({"diverged": False, "error": f"{type(exc).__name__}: {exc}"})
-            continue
-        seen.append({"diverged": got is not None, "tick": got.tick if got else None,
-                     "where": got.where if got else None, "pointer": got.pointer if got else None,
-                     "same": got is not None and got.signature() == divergence.signature()})
-    return {"replays": len(seen), "reproduced": sum(1 for s in seen if s.get("same")), "runs": seen}
+
+def _history_dependent(pair, finding, out_dir: Path, alone: dict[str, Any], again: dict[str, Any]) -> dict[str, Any]:
+    """F-CONFORM-HISTORY: the facts and a reproducer that replays the history first (F-REPRO)."""
+    from agspec.conform.confirm import history_facts
+    from agspec.conform.repro import make_reproducer, save_reproducer
+
+    d, subject = finding.run.divergence, finding.subject
+    history = (finding.history or {}).get(pair.actual_side) or ()
+    facts = history_facts(f"the divergence on {subject.label}", history)
+    ident = f"diff-{_slug(subject.label)}-t{d.tick}-history"
+    data = make_reproducer(ident=ident, title=f"diff: {d.where} {d.pointer or ''} after the process's history",
+                           instance=subject.instance, execution_seed=subject.execution_seed,
+                           actions=finding.run.actions[: d.tick + 1], impl=pair.other_spec, failure=d.to_json(),
+                           history=history)
+    try:
+        path = str(save_reproducer(out_dir, data))
+    except OSError:
+        path = None
+    return {**facts, "replays": alone, "with_history": again, "reproducer": path}
+
+
+def _print_history_dependent(finding, facts: dict[str, Any]) -> None:
+    d = finding.run.divergence
+    stdout.print(f"\n[bold red]history-dependent divergence[/] on {finding.subject.label} with {finding.policy}: "
+                 f"{d.where} {d.pointer or ''} {reply_name(d.tick, short=True)} — {facts['message']}", markup=True)
+    if facts.get("reproducer"):
+        stdout.print(f"  reproducer (with that history): {facts['reproducer']}", markup=False)
 
 
 def _print_nondeterministic(finding, original: dict[str, Any], final: dict[str, Any] | None) -> None:

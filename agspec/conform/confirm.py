@@ -29,7 +29,7 @@ import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, TypeVar
 
 from agspec.conform import repro
 from agspec.conform.impl import ImplSpecError, make_impl
@@ -38,6 +38,9 @@ from agspec.conform.run_item import Options, Result, run_item
 
 NONDETERMINISTIC, HISTORY_DEPENDENT, REPRODUCED = "nondeterministic", "history_dependent", "reproduced"
 UNCONFIRMED = "unconfirmed"  # no fresh implementation could be started from the spec: nothing is claimed
+
+
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -95,35 +98,64 @@ def fresh_run(data: dict[str, Any], impl_spec: str, timeout: float, validate: bo
     """Replay a reproducer as ``--replay`` will: a simulator process is new with every implementation
     made; an in-process adapter keeps module state in this process, so it is replayed in a new one."""
     quiet = dataclasses.replace(opts, repro_dir=None, golden_dir=None)
-    if not impl_spec.startswith("python:"):
-        return _fresh(data, impl_spec, timeout, validate, quiet)
-    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        return pool.submit(_fresh, data, impl_spec, timeout, validate, quiet).result()
+    return in_fresh_process(impl_spec.startswith("python:"), _fresh, data, impl_spec, timeout, validate, quiet)
+
+
+def judge(want: Any, replay: Callable[[bool], R], sig: Callable[[R], Any], *, replays: int = 1,
+          has_history: bool = False) -> tuple[str, list[R], list[R]]:
+    """THE judgement of a failure (F-CONFORM-NONDETERMINISM, F-CONFORM-HISTORY), for ``agspec conform``
+    and ``agspec diff`` alike: ``replay(with_history)`` runs the failing episode again in fresh
+    implementations (alone, or after the requests its process had received before); ``sig`` is what must
+    recur.  Returns the verdict — REPRODUCED when every fresh replay alone fails the same way;
+    HISTORY_DEPENDENT when the replays alone agree with each other but not with the run and every replay
+    with the history fails the same way; NONDETERMINISTIC otherwise — with the replays alone and those
+    with the history."""
+    alone = [replay(False) for _ in range(max(1, replays))]
+    if all(sig(r) == want for r in alone):
+        return REPRODUCED, alone, []
+    if len(alone) < 2:
+        alone.append(replay(False))
+    again: list[R] = []
+    if has_history and all(sig(r) == sig(alone[0]) for r in alone):
+        again = [replay(True) for _ in range(max(1, replays))]
+        if all(sig(r) == want for r in again):
+            return HISTORY_DEPENDENT, alone, again
+    return NONDETERMINISTIC, alone, again
 
 
 def confirm(first: Result, impl_spec: str, *, timeout: float, validate: bool, opts: Options,
             replays: int = 1) -> Confirmation:
     """Confirm the run's first failure (see the module docstring)."""
     want = signature(first)
-    minimal = reproducer_of(first, impl_spec, opts)
+    plain = reproducer_of(first, impl_spec, opts)
+    with_history = reproducer_of(first, impl_spec, opts, history=True) if first.history else None
+
+    def replay(history: bool) -> Result:
+        return fresh_run(with_history if history else plain, impl_spec, timeout, validate, opts)
+
     try:
-        alone = [fresh_run(minimal, impl_spec, timeout, validate, opts) for _ in range(max(1, replays))]
+        kind, alone, again = judge(want, replay, signature, replays=replays, has_history=bool(first.history))
     except CannotStart:
         return Confirmation(UNCONFIRMED)
-    if all(signature(r) == want for r in alone):
+    if kind == REPRODUCED:
         return Confirmation(REPRODUCED)
-    if len(alone) < 2:
-        alone.append(fresh_run(minimal, impl_spec, timeout, validate, opts))
     evidence: dict[str, Any] = {"id": first.item.id, "first": _seen(first), "replays": [_seen(r) for r in alone],
                                 "reproduced": sum(signature(r) == want for r in alone), "fresh": True}
-    agree = all(signature(r) == signature(alone[0]) for r in alone)
-    if agree and first.history:
-        with_history = reproducer_of(first, impl_spec, opts, history=True)
-        again = [fresh_run(with_history, impl_spec, timeout, validate, opts) for _ in range(max(1, replays))]
+    if again:
         evidence["with_history"] = [_seen(r) for r in again]
-        if all(signature(r) == want for r in again):
-            return Confirmation(HISTORY_DEPENDENT, {**evidence, **_history_facts(first)}, with_history)
+    if kind == HISTORY_DEPENDENT:
+        return Confirmation(HISTORY_DEPENDENT, {**evidence, **history_facts(first.item.id, first.history)},
+                            with_history)
     return Confirmation(NONDETERMINISTIC, evidence)
+
+
+def in_fresh_process(needed: bool, fn: Callable[..., R], *args: Any) -> R:
+    """``fn(*args)`` here, or — when an in-process adapter takes part (``needed``), whose module state lives
+    in this process — in a new Python process, as ``--replay`` would run it."""
+    if not needed:
+        return fn(*args)
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result()
 
 
 CONFIRM_MAX = 5  # failures of a run whose reproducers are replayed alone in a fresh process
@@ -174,7 +206,7 @@ def confirm_failures(failing: list[Result], impl_spec: str, *, timeout: float, v
             if signature(again) == want:
                 out.rewrites.append((result, data))
                 if out.history_dependent is None:
-                    out.history_dependent = {**evidence, **_history_facts(result)}
+                    out.history_dependent = {**evidence, **history_facts(result.item.id, result.history)}
                 continue
         out.nondeterministic = evidence
         return out
@@ -183,11 +215,12 @@ def confirm_failures(failing: list[Result], impl_spec: str, *, timeout: float, v
     return out
 
 
-def _history_facts(result: Result) -> dict[str, Any]:
-    history = result.history or ()
+def history_facts(ident: str, history: Any) -> dict[str, Any]:
+    """F-CONFORM-HISTORY: how much came before a failure that needs its process's history."""
+    history = history or ()
     loads = sum(1 for cmd, _ in history if cmd == "load")
     return {"episodes": loads, "requests": len(history),
-            "message": f"{result.item.id} fails only after the {len(history)} request(s) ({loads} load(s)) its "
+            "message": f"{ident} fails only after the {len(history)} request(s) ({loads} load(s)) its "
                        "simulator process had received before it; alone, in a fresh process, it does not"}
 
 
@@ -202,5 +235,6 @@ def write(path: str | None, data: dict[str, Any]) -> str | None:
         return None
 
 
-__all__ = ["Confirmation", "Findings", "confirm", "confirm_failures", "CONFIRM_MAX", "fresh_run", "reproducer_of", "signature", "write",
+__all__ = ["Confirmation", "Findings", "confirm", "confirm_failures", "CONFIRM_MAX", "fresh_run", "history_facts",
+           "in_fresh_process", "judge", "reproducer_of", "signature", "write",
            "NONDETERMINISTIC", "HISTORY_DEPENDENT", "REPRODUCED", "UNCONFIRMED"]

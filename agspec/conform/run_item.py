@@ -25,12 +25,13 @@ import traceback
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping
 
 from agspec import invariants
 from agspec.conform import golden, known, repro
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
 from agspec.conform.impl import Implementation, ReferenceImpl
+from agspec.conform.impl import history as history_mod
 from agspec.conform.items import Item
 from agspec.conform.lockstep import compare, driver
 from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
@@ -148,7 +149,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
             return res
         before = impl.requests.snapshot()  # this process's history so far (F-CONFORM-HISTORY)
         if item.history:
-            _send_history(impl, item.history)
+            history_mod.send(impl, item.history)
         directory = Path(opts.golden_dir) if opts.golden_dir and golden.eligible(item, impl, opts.tolerance) \
             and not item.history else None
         recorded = golden.lookup(directory, item) if directory is not None else None
@@ -223,26 +224,6 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         if res.outcome == "fail":
             res.history = before
         res.duration_s = time.monotonic() - t0
-
-
-def _send_history(impl: Implementation, history: Sequence[tuple[str, Any]]) -> None:
-    """F-REPRO: send a history reproducer's earlier requests, in order, before its episode; their replies
-    are not compared (the original run compared them in their own items).  A refusal (``ok: false``,
-    ``unsupported``) is part of that history; any other failure is the item's error."""
-    for cmd, payload in history:
-        try:
-            if cmd == "load":
-                impl.load(payload)
-            elif cmd == "reset":
-                impl.reset(payload)
-            else:
-                impl.step(payload)
-        except Unsupported:
-            continue
-        except ProtocolError as exc:
-            if exc.code != "error_reply":
-                exc.message = f"while its history was sent again ({cmd}): {exc.message}"
-                raise
 
 
 def _run_golden(res: Result, item: Item, impl: Implementation, recorded) -> bool | tuple | None:

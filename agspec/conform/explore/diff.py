@@ -43,6 +43,7 @@ from hypothesis.errors import NoSuchExample
 
 from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.catalogue import load_scenario_bundle, read_instance_file
+from agspec.conform.confirm import in_fresh_process, judge
 from agspec.conform.impl import ImplSpecError, make_impl
 from agspec.conform.lockstep.actions import (
     GENE_RANGE,
@@ -193,6 +194,8 @@ class Finding:
     policy: str
     run: Run
     shrunk: Any = None  # agspec.conform.explore.shrink.Shrunk
+    # F-CONFORM-HISTORY: per side ("A", "B"), the requests its process had received before this episode
+    history: dict[str, Any] | None = None
 
 
 @dataclass
@@ -218,23 +221,30 @@ class Plan:
     illegal_rate: float = ILLEGAL_RATE  # F-DIFF-ACTIONS
 
 
-def explore_subject(pair: Pair, plan: Plan, k: int) -> list[tuple[str, Run]]:
+def histories(pair: Pair) -> dict[str, Any] | None:
+    """What each side's process has received so far (F-CONFORM-HISTORY); None when a log overflowed."""
+    out = {side: impl.requests.snapshot() for side, impl in pair.sides()}
+    return None if any(h is None for h in out.values()) else out
+
+
+def explore_subject(pair: Pair, plan: Plan, k: int) -> list[tuple[str, Run, dict[str, Any] | None]]:
     """One campaign item: the episodes of subject ``k``, one per controller (controller seed = ``seed``
     + ``k``), stopping at its first divergence when ``first_only``.  The runs travel back to the
     driver without the live parts (the exception object and the last replies), which the driver
     never reads, so a run is the same whether it was computed here or on a worker (CAMP-IDENTICAL)."""
     subject = plan.subjects[k]
-    out: list[tuple[str, Run]] = []
+    out: list[tuple[str, Run, dict[str, Any] | None]] = []
     for controller in plan.controllers:
         policy = with_illegal(ControllerPolicy(controller, plan.seed + k), plan.illegal_rate, plan.seed + k)
+        before = histories(pair)
         run = lockstep(pair, subject.instance, subject.execution_seed, policy, plan.ticks)
-        out.append((policy.name, replace(run, failure=None, replies=(None, None))))
+        out.append((policy.name, replace(run, failure=None, replies=(None, None)), before))
         if run.divergence is not None and plan.first_only:
             break
     return out
 
 
-def _explore_item(context: tuple[Pair, Plan], k: int) -> list[tuple[str, Run]]:
+def _explore_item(context: tuple[Pair, Plan], k: int) -> list[tuple[str, Run, dict[str, Any] | None]]:
     pair, plan = context
     return explore_subject(pair, plan, k)
 
@@ -281,14 +291,14 @@ def explore(pair: Pair | None, subjects: Sequence[Subject], *, controllers: Sequ
             if not isinstance(outcome, Done):
                 result.errors.append((subject, f"worker failed: {outcome.message()}"))
                 continue
-            for name, run in outcome.value:
+            for name, run, before in outcome.value:
                 result.episodes += 1
                 result.ticks += run.ticks
                 result.states += run.states
                 if on_episode:
                     on_episode(f"{subject.label} {name}", run)
                 if run.divergence is not None:
-                    result.findings.append(Finding(subject, name, run))
+                    result.findings.append(Finding(subject, name, run, history=before))
             if first_only and result.findings:
                 break
     finally:
@@ -327,10 +337,11 @@ def hypothesis_search(pair: Pair, subjects: Sequence[Subject], *, examples: int,
     except NoSuchExample:
         return None, tried
     subject = subjects[k]
+    before = histories(pair)
     run = lockstep(pair, subject.instance, subject.execution_seed, GenePolicy(seq, illegal_rate), len(seq))
     if run.divergence is None:  # not reproducible (a flaky implementation): report nothing shrunk
         return None, tried
-    return Finding(subject, "hypothesis", run), tried
+    return Finding(subject, "hypothesis", run, history=before), tried
 
 
 def replay(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None, script: Sequence[JointAction],
@@ -338,6 +349,50 @@ def replay(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None, 
     """Replay a symbolic script on both sides (what shrinking and saved cases do)."""
     n = len(script) if ticks is None else ticks
     return lockstep(pair, instance, execution_seed, ScriptPolicy(script), n, stop_at_done=False)
+
+
+def _fresh_replay(specs: tuple[str, str], timeout: float, instance: Mapping[str, Any], execution_seed: int | None,
+                  script: Sequence[JointAction], ticks: int, history: dict[str, Any] | None) -> dict[str, Any]:
+    pair = open_pair(specs[0], specs[1], timeout=timeout)
+    try:
+        if history:
+            pair.send_history(history)
+        run = replay(pair, instance, execution_seed, script, ticks)
+    finally:
+        pair.close()
+    got = run.divergence
+    return {"diverged": got is not None, "tick": got.tick if got else None, "where": got.where if got else None,
+            "pointer": got.pointer if got else None, "signature": list(got.signature()) if got else None}
+
+
+def fresh_replay(specs: tuple[str, str], timeout: float, instance: Mapping[str, Any], execution_seed: int | None,
+                 script: Sequence[JointAction], ticks: int, history: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Replay ``script`` in a pair of new implementations — new processes, and a new Python process when a
+    side is an in-process adapter — after each side's ``history`` when given: a failure is judged the way
+    ``agspec conform`` judges its own (F-CONFORM-NONDETERMINISM, F-CONFORM-HISTORY).  The outcome as a
+    plain record; a replay that cannot run is one that did not reproduce."""
+    try:
+        return in_fresh_process(any(s.startswith("python:") for s in specs), _fresh_replay, specs, timeout, instance,
+                                execution_seed, list(script), ticks, history)
+    except Exception as exc:
+        return {"diverged": False, "error": f"{type(exc).__name__}: {exc}", "signature": None}
+
+
+def judge_divergence(specs: tuple[str, str], timeout: float, instance: Mapping[str, Any], execution_seed: int | None,
+                     script: Sequence[JointAction], divergence: Divergence, ticks: int,
+                     history: dict[str, Any] | None, replays: int = 1) -> tuple[str, list[dict[str, Any]],
+                                                                                  list[dict[str, Any]]]:
+    """The one judgement of :func:`agspec.conform.confirm.judge` on a divergence of ``agspec diff``:
+    REPRODUCED, HISTORY_DEPENDENT or NONDETERMINISTIC, with the fresh replays alone and with the history."""
+    want = list(divergence.signature())
+
+    def again(with_history: bool) -> dict[str, Any]:
+        out = fresh_replay(specs, timeout, instance, execution_seed, script, ticks, history if with_history else None)
+        out["same"] = out.get("signature") == want
+        return out
+
+    has_history = bool(history) and any(history.values())
+    return judge(want, again, lambda r: r.get("signature"), replays=replays, has_history=has_history)
 
 
 def non_idle(script: Sequence[JointAction]) -> Iterator[tuple[int, str, Any]]:
@@ -358,6 +413,7 @@ __all__ = [
     "Divergence", "Pair", "Run", "Subject", "Finding", "Exploration", "ControllerPolicy", "ScriptPolicy",
     "GenePolicy", "lockstep", "replay", "explore", "hypothesis_search", "load_subjects", "catalogue_subjects",
     "small_instances", "Plan", "explore_subject", "inline", "non_idle", "describe_action", "generalize",
+    "fresh_replay", "histories", "judge_divergence",
     "ImplementationFailure", "open_pair",
     "JointAction", "is_idle",
 ]

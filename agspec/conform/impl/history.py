@@ -4,15 +4,16 @@
 * :class:`RequestLog` — the ``load``, ``reset`` and ``step`` requests sent to the current process (or
   in-process adapter), in order; a new process starts with an empty log.  A failure that needs what
   the process did before gets these as the history of its reproducer.
+* :func:`send` — a history sent again to a fresh process, before the episode that needs it.
 * :class:`Budget` — giving up scoped to what failed: failed starts in a row (no item runs without a
   started simulator) and failures per instance (its fingerprint); other instances always run.
 """
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
-from agspec.formats.protocol import ProtocolError
+from agspec.formats.protocol import ProtocolError, Unsupported
 from agspec.ir.fingerprint import fingerprint
 
 LOG_CAP = 1_000_000  # requests a log keeps (beyond: the history is incomplete, not reproducible from it)
@@ -86,4 +87,25 @@ class Budget:
                                            "run (the harness no longer sends it; other instances still run)")
 
 
-__all__ = ["RequestLog", "Budget", "LOG_CAP"]
+
+def send(impl: Any, history: Sequence[tuple[str, Any]]) -> None:
+    """F-REPRO: send a history reproducer's earlier requests, in order, before its episode; their replies
+    are not compared (the original run compared them in their own items).  A refusal (``ok: false``,
+    ``unsupported``) is part of that history; any other failure is the item's error."""
+    for cmd, payload in history:
+        try:
+            if cmd == "load":
+                impl.load(payload)
+            elif cmd == "reset":
+                impl.reset(payload)
+            else:
+                impl.step(payload)
+        except Unsupported:
+            continue
+        except ProtocolError as exc:
+            if exc.code != "error_reply":
+                exc.message = f"while its history was sent again ({cmd}): {exc.message}"
+                raise
+
+
+__all__ = ["RequestLog", "Budget", "LOG_CAP", "send"]

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Protocol, Sequence
 
+from agspec.conform.impl import history as history_mod
 from agspec.conform.lockstep.compare import (
     MISSING,
     Divergence,
@@ -218,6 +219,16 @@ class Pair:
                 self.call(side, impl.load, instance)
                 if fp is not None:
                     self._loaded[side] = fp
+
+    def send_history(self, histories: Mapping[str, Any]) -> None:
+        """F-CONFORM-HISTORY: send each side the requests its process had received before (``histories`` by
+        side), as a fresh process must get them; the instance it last loaded counts as loaded."""
+        for side, impl in self.sides():
+            history = histories.get(side) or ()
+            history_mod.send(impl, history)
+            loads = [payload for cmd, payload in history if cmd == "load"]
+            if loads and self.cache_loads:
+                self._loaded[side] = fingerprint(loads[-1])
 
     def close(self) -> None:
         for _, impl in self.sides():
