@@ -13,6 +13,8 @@ from agspec import __version__
 from agspec.cli.common import EXIT_INTERNAL, stderr
 from agspec.cli.examples import attach
 from agspec.cli.grammar import rewrite
+from agspec.transport import reaper
+from agspec.transport.teardown import exit_on_signals
 
 # command name -> "module:function" (imported lazily so a broken module never breaks the CLI)
 COMMANDS = {
@@ -75,7 +77,20 @@ def cli() -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point: click handles usage errors (exit 2); anything unexpected is an internal error."""
+    """Entry point: click handles usage errors (exit 2); anything unexpected is an internal error.
+
+    Every process the command starts is gone when it ends, on every exit path (F-PROCESS-TEARDOWN):
+    SIGTERM and SIGHUP end the command through its ``finally`` blocks, and what escaped them is killed."""
+    began = reaper.now_ticks()
+    reaper.adopt_orphans()
+    try:
+        with exit_on_signals():
+            _main(argv)
+    finally:
+        reaper.kill_descendants(began)
+
+
+def _main(argv: list[str] | None) -> None:
     try:
         cli.main(args=argv, prog_name="agspec", standalone_mode=True)
     except SystemExit:

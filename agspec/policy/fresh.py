@@ -26,22 +26,33 @@ from typing import Any
 
 from agspec.policy.contract import PolicyError
 from agspec.policy.episode import run_here
+from agspec.transport.process import kill_group
 
 STDERR_KEEP = 4000  # characters of a failed child's standard error kept in the error record
 
 
 def run_fresh(job: Any) -> dict[str, Any]:
-    """The record of ``job`` run in a fresh Python process (``run_job`` there)."""
+    """The record of ``job`` run in a fresh Python process (``run_here`` there).
+
+    The child runs in a session and process group of its own, its stderr goes to a file (a helper the
+    policy leaves behind cannot hold a pipe this process waits on), and once it has exited its whole
+    process group is killed: whatever the policy started goes with it (F-POLICY-HOST)."""
     with tempfile.TemporaryDirectory(prefix="agspec-repeat-") as tmp:
-        src, dst = Path(tmp) / "job.pickle", Path(tmp) / "record.pickle"
+        src, dst, err = Path(tmp) / "job.pickle", Path(tmp) / "record.pickle", Path(tmp) / "stderr"
         src.write_bytes(pickle.dumps(job))
         env = {**os.environ, "PYTHONHASHSEED": "random"}
-        proc = subprocess.run([sys.executable, "-m", "agspec.policy.fresh", str(src), str(dst)], env=env,
-                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        if proc.returncode == 0 and dst.is_file():
+        with open(err, "wb") as stderr:
+            proc = subprocess.Popen([sys.executable, "-m", "agspec.policy.fresh", str(src), str(dst)], env=env,
+                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr,
+                                    start_new_session=True)
+            try:
+                code = proc.wait()
+            finally:
+                kill_group(proc)
+        if code == 0 and dst.is_file():
             return pickle.loads(dst.read_bytes())
-        error = PolicyError("crash", f"the repeat episode's fresh process exited with status {proc.returncode}",
-                            detail=proc.stderr.decode("utf-8", "replace")[-STDERR_KEEP:]).record()
+        error = PolicyError("crash", f"the repeat episode's fresh process exited with status {code}",
+                            detail=err.read_bytes().decode("utf-8", "replace")[-STDERR_KEEP:]).record()
         return {"scenario": job.scenario, "controller": job.policy.label, "index": job.index, "status": "error",
                 "metrics": None, "illegal_actions": None, "actions_sha256": None, "error": error, "wall_time": 0.0,
                 "repeat": True}

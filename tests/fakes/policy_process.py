@@ -1,7 +1,9 @@
 """A policy process for tests/test_policy.py: plays the highest legal action; misbehaves on demand.
 
 argv[1] = mode: ok | crash (exit 3 at tick 3) | garbage (non-JSON at tick 3) | hang (at tick 3) |
-wrong-seq | no-handshake.  With a second argument, writes its pid there (to check teardown).
+wrong-seq | no-handshake.  With a second argument, writes its pid there (to check teardown).  With
+``AGSPEC_LEAK=HOW:TAG`` in the environment, it leaves a helper process behind at start
+(tests/fakes/helpers.py).
 """
 
 import json
@@ -9,6 +11,12 @@ import os
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+if os.environ.get("AGSPEC_LEAK"):
+    from helpers import leave
+
+    _how, _, _tag = os.environ["AGSPEC_LEAK"].partition(":")
+    leave(_how, _tag)
 mode = sys.argv[1] if len(sys.argv) > 1 else "ok"
 if len(sys.argv) > 2:
     with open(sys.argv[2], "a") as fh:
