@@ -97,7 +97,7 @@ def test_no_docstring_names_an_issue_or_a_missing_file():
 
 
 def test_planted_issue_number_and_missing_file_are_reported(copy_root):
-    _edit(copy_root / "agspec" / "conform" / "driver.py", '"""The one lockstep driver',
+    _edit(copy_root / "agspec" / "conform" / "lockstep" / "driver.py", '"""The one lockstep driver',
           '"""(issue 12; see docs/lockstep.md) The one lockstep driver')
     found = G.stale_references(copy_root)
     assert any("agspec/conform/lockstep/driver.py:1: names an issue" in f for f in found)
