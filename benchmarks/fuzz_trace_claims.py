@@ -1,0 +1,107 @@
+"""Long run of the lying-header generator (F-TRACE-CLAIMS): honest traces, every header mutant, wrong passes.
+
+Usage:  python benchmarks/fuzz_trace_claims.py [--horizon 20] [--scenarios a,b] [--instances a.json,…]
+                                               [--limit N] [--json]
+
+Sources: honest traces written by the command line, ``agspec run SCENARIO --controller greedy
+--trace t.jsonl --horizon N``, of every official scenario (index 0), of the geometry-matched ones
+(suite index, not official) and of conformance instances (hand-made, batch mode among them), plus
+the shipped traces of conformance/traces/ (random and parallel-aware). Each source must pass
+``agspec check`` (no false alarm); then every mutant of its header (tests/trace_claims.py) is
+judged by what ``agspec check`` runs. Counted: mutants tried, those that change a checkable claim
+and passed (wrong passes, the target is 0), those that change nothing checkable (the spec's
+F-TRACE-CLAIMS table) and were still refused, and the unasserted ones (a hand-made instance whose
+fingerprint was recomputed: the instance is the trace's own definition).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from _common import ROOT, agspec_cmd, emit
+
+sys.path.insert(0, str(ROOT / "tests"))
+
+from trace_claims import expected_to_fail, judge, mutants, split  # noqa: E402
+
+OFFICIAL = ("flow-easy", "coalition-medium", "concurrency-hard")
+MATCHED = ("geometry-matched-low",)
+INSTANCES = ("solo-1x2-batch2-flat.json", "pair-2x2-official.json")
+
+
+def sources(args: argparse.Namespace, tmp: Path):
+    names = args.scenarios.split(",") if args.scenarios else list(OFFICIAL + MATCHED)
+    inst = args.instances.split(",") if args.instances else [str(ROOT / "conformance" / "instances" / i)
+                                                             for i in INSTANCES]
+    for target in names + inst:
+        out = tmp / (Path(target).stem + ".jsonl")
+        proc = subprocess.run(agspec_cmd() + ["run", target, "--controller", "greedy", "--trace", str(out),
+                                              "--horizon", str(args.horizon)], capture_output=True, text=True)
+        if proc.returncode:
+            raise SystemExit(f"agspec run {target} failed: {proc.stderr[-400:]}")
+        yield Path(target).stem, out.read_text(encoding="utf-8")
+    for path in sorted((ROOT / "conformance" / "traces").glob("*.jsonl")):
+        yield path.stem, path.read_text(encoding="utf-8")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--horizon", type=int, default=20)
+    ap.add_argument("--scenarios", default="")
+    ap.add_argument("--instances", default="")
+    ap.add_argument("--limit", type=int, default=0, help="mutants per source (0: all)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    started = time.perf_counter()
+    rows, wrong, false_alarms, over = [], [], [], []
+    missed: collections.Counter = collections.Counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, text in sources(args, Path(tmp)):
+            header, rest = split(text)
+            problems = judge(header, rest, Path(tmp))
+            if problems:
+                false_alarms.append(f"{label}: {problems[0]}")
+            ticks = sum(1 for line in rest if json.loads(line).get("type") == "tick")
+            terminated = isinstance(header.get("horizon"), int) and ticks < header["horizon"]
+            counts = collections.Counter()
+            for i, m in enumerate(mutants(header)):
+                if args.limit and i >= args.limit:
+                    break
+                want = expected_to_fail(m, header, terminated)
+                failed = bool(judge(m.header, rest, Path(tmp)))
+                counts["tried"] += 1
+                if want is True and not failed:
+                    counts["passed_wrongly"] += 1
+                    missed[m.pointer.split("/")[1] + ("/" + m.pointer.split("/")[2] if m.pointer.count("/") > 1
+                                                      else "")] += 1
+                    wrong.append(f"{label}: {m.label}")
+                elif want is False and failed:
+                    counts["refused_unchecked"] += 1
+                    over.append(f"{label}: {m.label}")
+                elif want is None:
+                    counts["unasserted"] += 1
+                    counts["unasserted_refused"] += failed
+                else:
+                    counts["checkable" if want else "unchecked"] += 1
+            rows.append({"source": label, "mutants": counts["tried"], "passed_wrongly": counts["passed_wrongly"],
+                         "refused_unchecked": counts["refused_unchecked"], "unasserted": counts["unasserted"],
+                         "unasserted_refused": counts["unasserted_refused"]})
+    result = {"sources": len(rows), "mutants": sum(r["mutants"] for r in rows), "passed_wrongly": len(wrong),
+              "false_alarms": len(false_alarms), "refused_unchecked": len(over),
+              "unasserted": sum(r["unasserted"] for r in rows), "missed_fields": dict(missed.most_common()),
+              "examples": wrong[:20] + false_alarms[:10] + over[:10], "seconds": round(time.perf_counter() - started, 1)}
+    emit(result, rows, ("source", "mutants", "passed_wrongly", "refused_unchecked", "unasserted", "unasserted_refused"),
+         f"lying headers: {result['mutants']} mutants of {len(rows)} honest traces, {len(wrong)} passed wrongly, "
+         f"{len(false_alarms)} false alarms, {len(over)} refused though unchecked", args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
