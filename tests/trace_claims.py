@@ -37,6 +37,10 @@ UNCHECKED = (
     (r"(^|/)doc$", "documentation, not part of the fingerprint"),
     (r"^/controller/seed$", "the controller's own seed: its choices are not replayed"),
     (r"^/controller/name$", "a policy's label is free; the choices are not replayed"),
+)
+# diagnostic state fields (F-TRACE-STATE) are no claim of the header, but the invariants read their
+# behavioural meaning (free iff busy_until <= t): a change may or may not fail; not asserted
+DIAGNOSTIC = (
     (r"^/state/robots/[^/]+/(" + "|".join(sorted(DIAGNOSTIC_FIELDS["robots"])) + r")(/|$)",
      "diagnostic field (F-TRACE-STATE)"),
     (r"^/state/activities/\d+/(" + "|".join(sorted(DIAGNOSTIC_FIELDS["activities"])) + r")$",
@@ -141,21 +145,33 @@ def mutants(header: Json) -> Iterator[Mutant]:
             yield Mutant(pointer, op, refingerprint, h)
 
 
+def _official(header: Json) -> bool:
+    return bool(((header.get("instance") or {}).get("scenario") or {}).get("suite", {}).get("official"))
+
+
+def _indexed(header: Json) -> bool:
+    return ((header.get("instance") or {}).get("seeds") or {}).get("index") is not None
+
+
 def _makes_claim(header: Json) -> bool:
     """Whether the stored instance names something outside the trace (F-TRACE-CLAIMS: official
     scenario, suite index); otherwise it is the trace's own definition."""
-    inst = header.get("instance") or {}
-    return bool((inst.get("scenario") or {}).get("suite", {}).get("official")) or \
-        (inst.get("seeds") or {}).get("index") is not None
+    return _official(header) or _indexed(header)
+
+
+SUITE_INDEX_CLAIMS = re.compile(r"^/instance/(id|seeds/index|seeds/generation|realization(/.*)?)$")
 
 
 def expected_to_fail(m: Mutant, honest: Json, terminated: bool) -> bool | None:
     """True: the mutant changes a checkable claim (check must fail); False: it changes nothing
-    checkable (F-TRACE-CLAIMS says why); None: not asserted (a self-defined instance re-fingerprinted,
-    whose every field is the trace's own definition)."""
+    checkable (F-TRACE-CLAIMS says why); None: not asserted (a field of an unofficial instance that
+    is the trace's own definition, re-fingerprinted; a diagnostic state field; deleting a field
+    the schema may or may not require)."""
     p = m.pointer
     if any(re.search(rx, p) for rx, _ in UNCHECKED):
-        return False
+        return False if m.op == "change" else None  # deleting one is the schema's to judge (required or not)
+    if any(re.search(rx, p) for rx, _ in DIAGNOSTIC):
+        return None
     if m.op == "delete" and (p in OPTIONAL or p.startswith("/controller/")):
         return False if p != "/horizon" or terminated else True
     if p == "/horizon" and terminated and m.op == "change":
@@ -164,10 +180,14 @@ def expected_to_fail(m: Mutant, honest: Json, terminated: bool) -> bool | None:
         if p == "/instance/id" and not _makes_claim(honest):
             return False  # a hand-made instance's name (not part of the fingerprint)
         if not m.refingerprinted:
-            return True  # TC-FINGERPRINT (every field here is defining: the unchecked ones are above)
+            return True  # F-CLAIM-FINGERPRINT (every field here is defining: the unchecked ones are above)
         if p == "/instance/realization/method" and not _makes_claim(honest):
             return False  # a hand-made instance's provenance label
-        return True if _makes_claim(honest) else None
+        if _official(honest):
+            return True  # F-CLAIM-OFFICIAL: every defining field is the catalogue's
+        if _indexed(honest) and SUITE_INDEX_CLAIMS.match(p):
+            return True  # F-CLAIM-SUITE-INDEX: the seed, the name and the realization of the index
+        return None  # the scenario, recipes and profile of an unofficial instance are its own definition
     if p.startswith("/controller/information"):
         return honest.get("controller", {}).get("name") in CONTROLLERS
     return True

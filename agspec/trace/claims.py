@@ -5,18 +5,18 @@ by which controller, from which initial state. :func:`check_claims` checks every
 be checked, and reports each that does not hold, located at the header's line and the pointer of
 the field (F-TRACE-VALIDATE; ``agspec trace validate`` and ``agspec check`` report the same):
 
-* **TC-FINGERPRINT** — ``fingerprint`` is the F-FINGERPRINT of the stored ``instance`` (AG607);
-* **TC-INSTANCE** — the stored instance is a valid instance (I-*; its own AG5xx codes, with the
+* **F-CLAIM-FINGERPRINT** — ``fingerprint`` is the F-FINGERPRINT of the stored ``instance`` (AG607);
+* **F-CLAIM-INSTANCE** — the stored instance is a valid instance (I-*; its own AG5xx codes, with the
   pointer under ``/instance``);
-* **TC-OFFICIAL** — a scenario that says ``suite official`` (S-OFFICIAL) is an official scenario of
+* **F-CLAIM-OFFICIAL** — a scenario that says ``suite official`` (S-OFFICIAL) is an official scenario of
   the catalogue lock (F-LOCK) and the stored instance is the one the catalogue makes from it with
   the stored seeds: scenario, recipes, resolved profile and realization (AG610);
-* **TC-LOCK-ID** — an instance whose ``id`` is the id of an instance of the lock is that
+* **F-CLAIM-LOCK-ID** — an instance whose ``id`` is the id of an instance of the lock is that
   instance: its fingerprint is the lock's (AG610);
-* **TC-SUITE-INDEX** — an instance with a suite ``index`` (S-SEEDS) has the generation seed of that
+* **F-CLAIM-SUITE-INDEX** — an instance with a suite ``index`` (S-SEEDS) has the generation seed of that
   index, the id of S-INSTANCE and the realization its generation seed makes (S-REALIZATION) (AG610);
-* **TC-SPEC-VERSION**, **TC-HORIZON**, **TC-CONTROLLER** — the header's own fields (AG611);
-* **TC-INITIAL-STATE** — ``state`` is s_0 of the instance (S-INSTANCE), its behavioural fields
+* **F-CLAIM-SPEC-VERSION**, **F-CLAIM-HORIZON**, **F-CLAIM-CONTROLLER** — the header's own fields (AG611);
+* **F-CLAIM-INITIAL-STATE** — ``state`` is s_0 of the instance (S-INSTANCE), its behavioural fields
   (F-TRACE-STATE), and ``events`` (when not null) the events of ``reset`` (F-TRACE-EMISSION) (AG612).
 
 What is not checked, and why, is F-TRACE-CLAIMS too: ``implementation`` (a self-declared name),
@@ -38,7 +38,7 @@ from agspec.diagnostics import Diagnostic
 from agspec.formats.pointer import first_difference
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
-from agspec.ir.fingerprint import fingerprint
+from agspec.ir.fingerprint import defining_view, fingerprint
 from agspec.ir.instance import DEFAULT_SEED_BASES, InstanceError, instance_id, make_instance, realize
 from agspec.ir.validate import validate_instance
 from agspec.resources import catalogue_dir
@@ -94,33 +94,39 @@ def check_claims(header: Mapping[str, Any], file: str, line: int | None, diag: D
         out.append(diag(code, message, file, line, pointer=pointer, hint=hint))
 
     instance = header.get("instance")
-    _header_fields(header, instance, bad)
+    try:
+        _header_fields(header, instance, bad)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError):
+        pass  # fields of the wrong type: the schema diagnostics say so
     if not isinstance(instance, dict):
         return out  # the schema reports it
     try:
         fp = fingerprint(instance)
     except Exception:  # no canonical form: the schema reports the value
         return out
-    # TC-FINGERPRINT
+    # F-CLAIM-FINGERPRINT
     if isinstance(header.get("fingerprint"), str) and header["fingerprint"] != fp:
         bad("AG607", "/fingerprint", f"fingerprint {header['fingerprint'][:19]}… is not the instance's ({fp[:19]}…)")
-    # TC-INSTANCE
+    # F-CLAIM-INSTANCE
     issues = [i for i in validate_instance(instance) if i.severity == "error"]
     for issue in issues:
         bad(issue.code, "/instance" + (issue.pointer or ""), issue.message, issue.hint)
     if issues:
         return out  # the claims below read a valid instance
-    _instance_claims(instance, fp, bad)
-    _initial_state(header, instance, bad)
+    try:
+        _instance_claims(instance, fp, bad)
+        _initial_state(header, instance, bad)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError):
+        pass  # an instance without the fields: the schema diagnostics of the header say so
     return out
 
 
 def _header_fields(header: Mapping[str, Any], instance: Any, bad: Callable[..., None]) -> None:
-    # TC-SPEC-VERSION
+    # F-CLAIM-SPEC-VERSION
     if isinstance(header.get("spec_version"), str) and header["spec_version"] != SPEC_VERSION:
         bad("AG611", "/spec_version", f"spec_version {header['spec_version']!r} is not this specification's "
                                       f"({SPEC_VERSION!r})", "a v1 trace declares the spec version it follows")
-    # TC-HORIZON
+    # F-CLAIM-HORIZON
     horizon = header.get("horizon")
     ev = (instance.get("scenario") or {}).get("evaluation") if isinstance(instance, dict) else None
     if isinstance(horizon, int) and isinstance(ev, dict):
@@ -129,7 +135,7 @@ def _header_fields(header: Mapping[str, Any], instance: Any, bad: Callable[..., 
             bad("AG611", "/horizon", f"horizon {horizon} is outside 1..{limit}, the instance's evaluation "
                                      f"{'timeout' if ev.get('mode') == 'batch' else 'horizon'}",
                 "a run executes at most its instance's evaluation horizon (R-TERMINATION)")
-    # TC-CONTROLLER
+    # F-CLAIM-CONTROLLER
     ctl = header.get("controller")
     if "controller" in header and isinstance(ctl, dict):
         name, info = ctl.get("name"), ctl.get("information")  # their form is the schema's
@@ -141,7 +147,7 @@ def _header_fields(header: Mapping[str, Any], instance: Any, bad: Callable[..., 
 def _instance_claims(instance: Json, fp: str, bad: Callable[..., None]) -> None:
     scenario, seeds = instance["scenario"], instance.get("seeds") or {}
     index, gen, exe = seeds.get("index"), seeds.get("generation"), seeds.get("execution")
-    # TC-LOCK-ID
+    # F-CLAIM-LOCK-ID
     locked = _lock_ids().get(instance.get("id"))
     if locked is not None and locked[2] != fp:
         bad("AG610", "/instance/id", f"the instance is named {instance['id']!r}, an instance of the catalogue lock "
@@ -150,8 +156,20 @@ def _instance_claims(instance: Json, fp: str, bad: Callable[..., None]) -> None:
             "a trace of another instance must not carry an official instance's name")
     if not isinstance(gen, int):
         return
-    # TC-OFFICIAL
-    if (scenario.get("suite") or {}).get("official"):
+    # F-CLAIM-SUITE-INDEX: the seed and the name of a suite index
+    suite = scenario.get("suite") or {}
+    if isinstance(index, int) and not isinstance(index, bool):
+        base = int(suite.get("generation_seed_base", DEFAULT_SEED_BASES[0]))
+        if gen != base + index:
+            bad("AG610", "/instance/seeds/generation", f"suite index {index} has generation seed {base + index} "
+                                                       f"(S-SEEDS), the instance says {gen}")
+            return
+        want_id = instance_id(scenario, index, gen, True)
+        if instance.get("id") != want_id:
+            bad("AG610", "/instance/id", f"the instance of suite index {index} is named {want_id!r} (S-INSTANCE), "
+                                         f"not {instance.get('id')!r}")
+    # F-CLAIM-OFFICIAL
+    if suite.get("official"):
         entry = _lock().get("scenarios", {}).get(scenario.get("id"))
         if entry is None or entry.get("fingerprint") != fingerprint(scenario):
             bad("AG610", "/instance/scenario", f"the scenario {scenario.get('id')!r} says `suite official` but is "
@@ -162,24 +180,16 @@ def _instance_claims(instance: Json, fp: str, bad: Callable[..., None]) -> None:
         except (CatalogueError, InstanceError) as exc:
             bad("AG610", "/instance/seeds", f"the catalogue cannot make this instance: {exc}")
             return
-        where = _first_difference(want, instance)
-        if where and where not in ("/seeds/execution", "/meta") and not where.startswith("/meta/"):
+        # what the fingerprint covers (F-FINGERPRINT): the id and index were judged above, the
+        # execution seed is inert (D-DETERMINISM), `meta` and `doc` are documentation
+        where = _first_difference(defining_view(want), defining_view(instance))
+        if where:
             bad("AG610", "/instance" + where, f"the instance is not the one official scenario {scenario['id']!r} "
                                               f"makes with its seeds (index {index}, generation seed {gen}): "
                                               f"they differ at {where}")
         return
-    # TC-SUITE-INDEX
+    # F-CLAIM-SUITE-INDEX: the realization of a suite index is its generation seed's
     if isinstance(index, int) and not isinstance(index, bool):
-        suite = scenario.get("suite") or {}
-        base = int(suite.get("generation_seed_base", DEFAULT_SEED_BASES[0]))
-        if gen != base + index:
-            bad("AG610", "/instance/seeds/generation", f"suite index {index} has generation seed {base + index} "
-                                                       f"(S-SEEDS), the instance says {gen}")
-            return
-        want_id = instance_id(scenario, index, gen, True)
-        if instance.get("id") != want_id:
-            bad("AG610", "/instance/id", f"the instance of suite index {index} is named {want_id!r} (S-INSTANCE), "
-                                         f"not {instance.get('id')!r}")
         try:
             made = realize(scenario, instance["recipes"], instance["profile"], gen)
         except (KeyError, TypeError, ValueError):
@@ -191,7 +201,7 @@ def _instance_claims(instance: Json, fp: str, bad: Callable[..., None]) -> None:
 
 
 def _initial_state(header: Mapping[str, Any], instance: Json, bad: Callable[..., None]) -> None:
-    # TC-INITIAL-STATE
+    # F-CLAIM-INITIAL-STATE
     try:
         sim = Simulator(instance)
     except Exception:  # an instance the interpreter cannot load: its validation says why
