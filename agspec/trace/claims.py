@@ -21,7 +21,7 @@ the field (F-TRACE-VALIDATE; ``agspec trace validate`` and ``agspec check`` repo
 
 What is not checked, and why, is F-TRACE-CLAIMS too: ``implementation`` (a self-declared name),
 ``execution_seed`` and ``seeds.execution`` (inert in v1, D-DETERMINISM), ``id`` and ``meta`` of an
-instance that makes no suite or lock claim, ``realization.method`` outside the official suite
+instance that makes no suite or lock claim, ``realization.method`` of such an instance
 (a non-normative label), and the diagnostic fields of s_0.
 """
 
