@@ -40,7 +40,8 @@ def report_record(path: str, report: Any, diags: list[Any], whole: list[Any] = (
     ``paired``: the records whose events were paired with the states (F-TRACE-PAIRING).
     """
     return {
-        "file": path, "ok": report.ok and not whole and not diags, "ticks": report.ticks, "agents": report.agents, "states": report.states,
+        "file": path, "ok": report.ok and not whole and not diags, "ticks": report.ticks, "agents": report.agents,
+        "states": report.states,
         "checks": report.checks, "records": report.records, "skipped": report.skipped,
         "total_checks": report.total_checks,
         "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}
