@@ -178,7 +178,7 @@ def expected_to_fail(m: Mutant, honest: Json, terminated: bool) -> bool | None:
         return None  # a larger horizon is consistent with a run that ended by R-TERMINATION
     if p.startswith("/instance/"):
         if p == "/instance/id" and not _makes_claim(honest):
-            return False  # a hand-made instance's name (not part of the fingerprint)
+            return False if m.op == "change" else None  # a hand-made instance's name (required: the schema's)
         if not m.refingerprinted:
             return True  # F-CLAIM-FINGERPRINT (every field here is defining: the unchecked ones are above)
         if p == "/instance/realization/method" and not _makes_claim(honest):
