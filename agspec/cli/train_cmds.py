@@ -161,12 +161,14 @@ def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
         TimeRemainingColumn,
     )
 
-    from agspec.checkpoint.rundir import RunDirError, refuse_foreign
+    from agspec.checkpoint.rundir import CHECKPOINT, RunDirError, is_complete, refuse_foreign
 
     try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
         refuse_foreign(out)
     except RunDirError as exc:
         fail(str(exc), EXIT_USAGE)
+    if resume and not (out / CHECKPOINT).is_file() and not is_complete(out):  # T-RESUME: said, not silent
+        stderr.print(f"--resume: {out} holds no checkpoint to continue; a new run starts from step 0", markup=False)
     try:
         from agspec.checkpoint.files import CheckpointError
         from agspec.train.api import train as train_run

@@ -86,4 +86,34 @@ class TraceWriter:
         self._out.close()
 
 
-__all__ = ["TRACE_FORMAT", "TraceWriter", "dumps", "read_records", "values_of"]
+__all__ = ["DIAGNOSTIC_FIELDS", "TRACE_FORMAT", "TraceWriter", "behavioural", "dumps", "is_diagnostic", "read_records", "values_of"]
+
+
+# F-TRACE-STATE: the diagnostic fields of the canonical state — bookkeeping no observer sees, compared
+# only when the implementation declares the `diagnostic_state` capability; every other field is behavioural.
+DIAGNOSTIC_FIELDS: dict[str, frozenset[str]] = {
+    "robots": frozenset({"busy_until", "switch_lock", "ee", "q"}),
+    "activities": frozenset({"approach", "process", "retreat"}),
+}
+
+
+def behavioural(state: Any) -> Any:
+    """``state`` without its diagnostic fields (a shallow copy; the input is not modified)."""
+    if not isinstance(state, dict):
+        return state
+    out = dict(state)
+    robots, acts = state.get("robots"), state.get("activities")
+    if isinstance(robots, dict):
+        drop = DIAGNOSTIC_FIELDS["robots"]
+        out["robots"] = {k: {f: v for f, v in r.items() if f not in drop} if isinstance(r, dict) else r
+                         for k, r in robots.items()}
+    if isinstance(acts, list):
+        drop = DIAGNOSTIC_FIELDS["activities"]
+        out["activities"] = [{f: v for f, v in a.items() if f not in drop} if isinstance(a, dict) else a for a in acts]
+    return out
+
+
+def is_diagnostic(pointer: str) -> bool:
+    """Whether a JSON Pointer into the state names a diagnostic field (or a part of one)."""
+    tokens = pointer.split("/")[1:]
+    return len(tokens) >= 3 and tokens[2] in DIAGNOSTIC_FIELDS.get(tokens[0], frozenset())

@@ -349,7 +349,7 @@ def expire_invalid_proposals(state: State, valid_ids: set[str], events: Events) 
     """R-EXPIRY (in-epoch): after admission, drop proposals whose candidate no longer exists or expired."""
     for cid in sorted(state.proposals):
         proposal = state.proposals[cid]
-        if cid not in valid_ids:
+        if cid not in valid_ids:  # RES-IN-EPOCH-EXPIRY: validity first; the branch below never fires
             drop_proposal(state, proposal, "invalid", events)
         elif state.t > proposal.expires_at:
             drop_proposal(state, proposal, "expired", events)

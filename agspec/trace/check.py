@@ -35,10 +35,13 @@ def report_record(path: str, report: Any, diags: list[Any], whole: list[Any] = (
 
     ``whole``: the whole-trace problems (F-TRACE-CHECK: record count against the horizon, footer
     metrics recomputed from the records, events against states); the trace is ok only when both
-    lists are empty. ``paired``: the records whose events were paired with the states (F-TRACE-PAIRING).
+    lists are empty and so is ``diags`` — what ``agspec trace validate`` reports on the same file
+    (F-TRACE-VALIDATE: one judgement; the header's claims, F-TRACE-CLAIMS, among them).
+    ``paired``: the records whose events were paired with the states (F-TRACE-PAIRING).
     """
     return {
-        "file": path, "ok": report.ok and not whole, "ticks": report.ticks, "agents": report.agents, "states": report.states,
+        "file": path, "ok": report.ok and not whole and not diags, "ticks": report.ticks, "agents": report.agents,
+        "states": report.states,
         "checks": report.checks, "records": report.records, "skipped": report.skipped,
         "total_checks": report.total_checks,
         "violations": [{"invariant": v.invariant, "tick": v.tick, "entity": v.entity, "message": v.message}

@@ -10,8 +10,10 @@ the record — never a traceback.  Checks, in order:
 * the structure of the trace (AG6xx, F-CODES): a header first (AG601), tick records with
   consecutive epochs whose state is at ``t + 1`` (AG602), nothing after the footer and a single
   header (AG603), a footer (AG604: the trace is truncated), a footer that agrees with the records
-  and declares the execution complete (AG605), at least one record (AG606), a header fingerprint
-  that is the instance's (AG607).
+  and declares the execution complete (AG605), at least one record (AG606);
+* the header's claims (F-TRACE-CLAIMS, :mod:`agspec.trace.claims`): a fingerprint that is the
+  instance's (AG607), a valid instance (AG5xx), the instance it names (AG610), its own fields
+  (AG611), the initial state and reset events of its instance (AG612).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from agspec.formats import limits
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.schemas import validate
 from agspec.formats.trace import values_of
-from agspec.ir.fingerprint import fingerprint
+from agspec.trace.claims import CLAIM_CODES, check_claims
 
 TRACE_CODES = {
     "AG601": "the trace does not start with a header record",
@@ -37,6 +39,7 @@ TRACE_CODES = {
     "AG608": "the trace stops before its horizon without terminating, or runs past it (agspec check)",
     "AG609": "an event and the states disagree: a change without its event, or an event without its change "
              "(agspec check, F-TRACE-PAIRING)",
+    **CLAIM_CODES,
 }
 
 
@@ -46,9 +49,12 @@ def _diag(code: str, message: str, file: str, line: int | None, pointer: str | N
     return Diagnostic(code, text, file=file, line=line, col=col, hint=hint, pointer=pointer)
 
 
-def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int = 20
+def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int = 20, claims: bool = True
                ) -> tuple[list[dict[str, Any]], list[Diagnostic]]:
-    """Read ``path``; returns the parsed records and the diagnostics (empty: a valid, complete trace)."""
+    """Read ``path``; returns the parsed records and the diagnostics (empty: a valid, complete trace).
+
+    ``claims``: check the header's claims (F-TRACE-CLAIMS); only a reader that shows a trace without
+    judging it (the viewer) leaves them out."""
     path = Path(path)
     file = str(path)
     diags: list[Diagnostic] = []
@@ -74,14 +80,14 @@ def read_trace(path: str | Path, *, schema: bool = True, max_schema_errors: int 
         return [], [exc.diagnostic()]
     except OSError as exc:  # a read error after the file was opened
         diags.append(_diag("AG002", f"cannot read {file}: {exc.strerror or exc}", file, None))
-    diags += _structure(records, lines, file)
+    diags += _structure(records, lines, file, claims)
     # by line, except that a limit (F-LIMITS, AG006) comes first: the file was not read past it
     diags.sort(key=lambda d: (d.code != "AG006", d.line or 0))
     return records, diags
 
 
-def _structure(records: list[dict[str, Any]], lines: list[int], file: str) -> list[Diagnostic]:
-    """F-TRACE structure checks (AG601-AG607)."""
+def _structure(records: list[dict[str, Any]], lines: list[int], file: str, claims: bool = True) -> list[Diagnostic]:
+    """F-TRACE structure checks (AG601-AG606) and the header's claims (F-TRACE-CLAIMS)."""
     out: list[Diagnostic] = []
     if not records:
         return [_diag("AG606", "the trace is empty: no records", file, None,
@@ -90,14 +96,8 @@ def _structure(records: list[dict[str, Any]], lines: list[int], file: str) -> li
         out.append(_diag("AG601", f"the first record is a {records[0].get('type')!r} record, not the header",
                          file, lines[0], pointer="/type"))
     header = records[0] if records[0].get("type") == "header" else None
-    if header is not None and isinstance(header.get("instance"), dict) and isinstance(header.get("fingerprint"), str):
-        try:
-            fp = fingerprint(header["instance"])
-            if fp != header["fingerprint"]:
-                out.append(_diag("AG607", f"fingerprint {header['fingerprint'][:19]}… is not the instance's ({fp[:19]}…)",
-                                 file, lines[0], pointer="/fingerprint"))
-        except Exception:  # an instance without a canonical form is reported by the schema
-            pass
+    if header is not None and claims:  # F-TRACE-CLAIMS: AG607, the instance's AG5xx, AG610-AG612
+        out += check_claims(header, file, lines[0], _diag)
     expected_t = None
     if header is not None and isinstance(header.get("state"), dict) and isinstance(header["state"].get("t"), int):
         expected_t = header["state"]["t"]

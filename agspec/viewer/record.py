@@ -59,6 +59,10 @@ def record(impl_spec: str, instance: Mapping[str, Any], writer: TraceWriter, *, 
         policy.observes = policy.observes or observations  # I_t for the trace: from a shadow if need be
         ctl_record = {"name": "script"}
     limit = min(ticks, len(actions)) if actions is not None else ticks
+    ev = (instance.get("scenario") or {}).get("evaluation") or {}
+    cap = ev.get("timeout") if ev.get("mode") == "batch" else ev.get("horizon")
+    if isinstance(cap, int):  # F-CLAIM-HORIZON: a run executes at most its instance's evaluation horizon
+        limit = min(limit, cap)
     try:
         try:
             info = impl.start()
