@@ -16,6 +16,7 @@ from agspec.ir.validate.common import (
     Resolver,
     _dict,
     _did_you_mean,
+    _fixable,
     _err,
     _is_int,
     _is_num,
@@ -104,8 +105,9 @@ def _check_grid(scenario: Mapping) -> list[Issue]:
                         "raw material enters in the left column and leaves from the right one; they must differ"))
     topo = grid.get("topology", topology.DEFAULT_TOPOLOGY)
     if isinstance(topo, str) and topo not in topology.TOPOLOGIES:
-        out.append(_err("AG411", f"unknown topology `{topo}`{_did_you_mean(topo, topology.TOPOLOGIES)}",
-                        _ptr("grid", "topology"), f"use one of {_q(topology.TOPOLOGIES)}"))
+        out.append(_fixable(_err("AG411", f"unknown topology `{topo}`{_did_you_mean(topo, topology.TOPOLOGIES)}",
+                                 _ptr("grid", "topology"), f"use one of {_q(topology.TOPOLOGIES)}"),
+                            topo, topology.TOPOLOGIES))
     radius = grid.get("radius", topology.DEFAULT_RADIUS)
     if not (_is_int(radius) and radius >= 1):
         out.append(_err("AG411", f"topology radius must be an integer >= 1, got {radius!r}",
@@ -160,8 +162,8 @@ def _check_profile_ref(scenario: Mapping, resolver: Resolver, check_variant: boo
     variants = _dict(profile.get("variants"))
     if check_variant and isinstance(variant, str) and variant not in variants:
         known = _q(sorted(variants)) or "none"
-        return [_err("AG415", f"profile `{pid}` has no variant `{variant}`{_did_you_mean(variant, variants)}",
-                     _ptr("profile", "variant"), f"declared variants: {known}")]
+        return [_fixable(_err("AG415", f"profile `{pid}` has no variant `{variant}`{_did_you_mean(variant, variants)}",
+                              _ptr("profile", "variant"), f"declared variants: {known}"), variant, variants)]
     return []
 
 
