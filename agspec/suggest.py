@@ -35,11 +35,18 @@ def closest(name: object, known: Iterable[str], n: int = 1, *, case: bool = True
     known spelling.  A name that is itself known is not suggested."""
     names = sorted({k for k in known if isinstance(k, str)})
     wanted = str(name)
-    if not case:
-        folded = {k.upper(): k for k in names}
-        return [folded[m] for m in difflib.get_close_matches(wanted.upper(), sorted(folded), n=n, cutoff=CUTOFF)
-                if m != wanted.upper()]
-    return [m for m in difflib.get_close_matches(wanted, names, n=n, cutoff=CUTOFF) if m != wanted]
+    fold = (lambda x: x) if case else str.upper
+    spelled = {fold(k): k for k in names}
+    # all candidates above the cutoff, then best first: difflib's ratio, ties broken by the ratio of
+    # the sorted letters (a transposition, `process1_`, is closer to `process_1` than to `process_2`)
+    found = difflib.get_close_matches(fold(wanted), sorted(spelled), n=len(spelled) or 1, cutoff=CUTOFF)
+    found = [m for m in found if m != fold(wanted)]
+    found.sort(key=lambda m: (-_ratio(fold(wanted), m), -_ratio(sorted(fold(wanted)), sorted(m)), m))
+    return [spelled[m] for m in found[:n]]
+
+
+def _ratio(a: Sequence[str], b: Sequence[str]) -> float:
+    return difflib.SequenceMatcher(None, a, b).ratio()
 
 
 def did_you_mean(name: object, known: Iterable[str]) -> str:

@@ -10,8 +10,9 @@ import click
 
 from agspec.campaign.executor import ExecutorSpec
 from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError, parse_indices
-from agspec.cli.common import (EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, emit_json,
-                               fail, stderr, stdout)
+from agspec.cli.common import (
+    EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, Choice, emit_json, fail, stderr,
+    stdout)
 from agspec.cli.executor_opts import executor_options
 from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
 from agspec.conform.compare import reply_name
@@ -36,7 +37,7 @@ REPLAYS = 3  # F-CONFORM-NONDETERMINISM: re-runs of the original failure and of 
 @horizon_option("Ticks per episode.", default=60)
 @click.option("--seed", type=SEED_RANGE, default=0, show_default=True,
               help="Seed of this command's own random choices: the controllers, small instances and hypothesis.")
-@click.option("--controller", "controllers", multiple=True, type=click.Choice(["random", "greedy", "parallel-aware"]),
+@click.option("--controller", "controllers", multiple=True, type=Choice(["random", "greedy", "parallel-aware"]),
               help="Controllers choosing the actions (repeatable). Default: random and greedy.")
 @click.option("--small", type=click.IntRange(0), default=1, show_default=True,
               help="Small generated instances per scenario (its recipes on a 1..3 x 2..4 grid).")

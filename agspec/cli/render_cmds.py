@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 from rich.markup import escape
 
-from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, SEED_RANGE, fail, stderr, stdout
+from agspec.cli.common import Choice, EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, SEED_RANGE, fail, stderr, stdout
 from agspec.cli.grammar import horizon_option, output_option, timeout_option
 from agspec.controllers import CONTROLLERS
 
@@ -29,7 +29,7 @@ from agspec.controllers import CONTROLLERS
               help="With --impl: the scenario (official name or .ag file) or instance .json to record.")
 @click.option("--index", type=SEED_RANGE, default=0, show_default=True, help="With --scenario: the suite index.")
 @horizon_option("With --impl: ticks to record.", default=120)
-@click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True,
+@click.option("--controller", type=Choice(CONTROLLERS), default="greedy", show_default=True,
               help="With --impl: the reference controller choosing the actions.")
 @click.option("--observations/--no-observations", default=True, show_default=True,
               help="With --impl: record every robot's observation and mask in the trace.")

@@ -372,7 +372,7 @@ class _Recovery:
                        span: Span, continues: Token | None = None) -> None:
         kw = keywords()
         words = sorted(kw[t] for t in expected if t in kw)
-        close = closest(tok, words)  # F-SUGGEST
+        close = [] if tok.type in kw else closest(tok, words)  # F-SUGGEST: a keyword is misplaced, not misspelt
         listed = ", ".join(f"`{kw[t]}`" for t in sorted(terms, key=lambda t: kw[t]))
         article = "an" if noun[0] in "aeiou" else "a"
         hint = f"did you mean `{close[0]}`?" if close else f"{article} {noun} is one of {listed}"

@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 from typing import Any, Callable, Mapping
 
+from agspec.suggest import choice_message
 from agspec.train.config import ConfigError, resolve
 from agspec.train.rundir import RunDirError, is_complete, read_summary
 
@@ -53,7 +54,7 @@ def resolve_config(algorithm: str, scenario: str, seed: int,
     from agspec.train.config import ALGORITHMS
 
     if algorithm not in ALGORITHMS:  # before loading the scenario: the cheaper error first
-        raise ConfigError(f"unknown algorithm {algorithm!r}; choose one of {', '.join(ALGORITHMS)}")
+        raise ConfigError(choice_message("algorithm", algorithm, ALGORITHMS))  # F-SUGGEST
     return resolve(algorithm, scenario, seed, scenario_family(scenario), overrides)
 
 

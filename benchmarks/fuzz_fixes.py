@@ -1,0 +1,55 @@
+"""Every fix a diagnostic claims is correct, every misspelt name gets its right suggestion (F-FIX,
+F-SUGGEST): the whole generator of tests/fix_cases.py.
+
+Usage:  python benchmarks/fuzz_fixes.py [--every 1] [--show 20] [--from-hints]
+
+Each case (the golden corpus of bad inputs; the catalogue mutated: precedences dropped, an earlier
+operation consuming a later one's output, names, keywords and JSON fields misspelt by one edit,
+`use` of official catalogue paths from an empty directory) is validated; every diagnostic's fix is
+applied to the file and the file validated again: the fix is wrong if its error stays or an error
+is added. For a misspelt name, the diagnostics must name the right one. Prints the figures; the
+bounded share is tests/test_fixes.py.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from fix_cases import cases, check  # noqa: E402
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--every", type=int, default=1, help="keep one misspelling in N (1: all)")
+    ap.add_argument("--show", type=int, default=20, help="wrong cases printed")
+    ap.add_argument("--from-hints", action="store_true",
+                    help="read each fix from the hint's prose (how an agspec without F-FIX is measured)")
+    args = ap.parse_args()
+    tried = fixes = named_cases = unnamed = 0
+    wrong: list[str] = []
+    missed: list[str] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n, case in enumerate(cases(args.every)):
+            out = check(case, Path(tmp) / f"c{n}", args.from_hints)
+            tried += 1
+            fixes += out.fixes
+            wrong += out.wrong_fixes or []
+            if out.named is not None:
+                named_cases += 1
+                if not out.named:
+                    unnamed += 1
+                    missed.append(f"{case.name}: `{case.expect}` not suggested")
+    for line in (wrong + missed)[:args.show]:
+        print(line)
+    print(f"inputs tried: {tried}; fixes applied: {fixes}; wrong fixes: {len(wrong)}; "
+          f"misspelt names: {named_cases}; right name not suggested: {unnamed}")
+    return 1 if wrong or unnamed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
