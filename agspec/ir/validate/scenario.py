@@ -133,9 +133,17 @@ def _check_recipe_refs(scenario: Mapping, resolver: Resolver) -> list[Issue]:
             continue
         seen.add(name)
         if _resolve(resolver, "recipe", name) is None:
-            out.append(_err("AG412", f"unknown recipe `{name}`", _ptr("recipes", m),
-                            "declare the recipe in a .ag file on the search path or use a catalogue recipe"))
+            known = _names(resolver, "recipe")
+            out.append(_fixable(_err("AG412", f"unknown recipe `{name}`{_did_you_mean(name, known)}", _ptr("recipes", m),
+                                     "declare the recipe in a .ag file on the search path or use a catalogue recipe"),
+                                name, known))
     return out
+
+
+def _names(resolver: Resolver | None, kind: str) -> list[str]:
+    """The names a resolver knows for ``kind`` (F-SUGGEST), where it can list them."""
+    names = getattr(resolver, "names", None)
+    return list(names(kind)) if callable(names) else []
 
 
 def _resolve(resolver: Resolver | None, kind: str, name: str) -> Json | None:
@@ -156,8 +164,9 @@ def _check_profile_ref(scenario: Mapping, resolver: Resolver, check_variant: boo
         return []
     profile = _resolve(resolver, "profile", pid)
     if profile is None:
-        return [_err("AG414", f"unknown geometry profile `{pid}`", _ptr("profile", "id"),
-                     "official scenarios use `abstract-v1`")]
+        known = _names(resolver, "profile")
+        return [_fixable(_err("AG414", f"unknown geometry profile `{pid}`{_did_you_mean(pid, known)}", _ptr("profile", "id"),
+                              "official scenarios use `abstract-v1`"), pid, known)]
     variant = ref.get("variant")
     variants = _dict(profile.get("variants"))
     if check_variant and isinstance(variant, str) and variant not in variants:
