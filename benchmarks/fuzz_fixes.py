@@ -5,7 +5,8 @@ Usage:  python benchmarks/fuzz_fixes.py [--every 1] [--show 20] [--from-hints]
 
 Each case (the golden corpus of bad inputs; the catalogue mutated: precedences dropped, an earlier
 operation consuming a later one's output, names, keywords and JSON fields misspelt by one edit,
-`use` of official catalogue paths from an empty directory) is validated; every diagnostic's fix is
+`use` of official catalogue paths from an empty directory) is validated, and so is every command-line
+name (controller, algorithm, scenario, spec ID) misspelt by one edit; every diagnostic's fix is
 applied to the file and the file validated again: the fix is wrong if its error stays or an error
 is added. For a misspelt name, the diagnostics must name the right one. Prints the figures; the
 bounded share is tests/test_fixes.py.
@@ -20,7 +21,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from fix_cases import cases, check  # noqa: E402
+from fix_cases import cases, check, check_cli, cli_cases  # noqa: E402
 
 
 def main() -> int:
@@ -44,10 +45,17 @@ def main() -> int:
                 if not out.named:
                     unnamed += 1
                     missed.append(f"{case.name}: `{case.expect}` not suggested")
+    cli_tried = 0
+    for argv, name in cli_cases(args.every):
+        cli_tried += 1
+        if not check_cli(argv, name):
+            unnamed += 1
+            missed.append(f"agspec {' '.join(argv)}: `{name}` not suggested")
+    named_cases += cli_tried
     for line in (wrong + missed)[:args.show]:
         print(line)
-    print(f"inputs tried: {tried}; fixes applied: {fixes}; wrong fixes: {len(wrong)}; "
-          f"misspelt names: {named_cases}; right name not suggested: {unnamed}")
+    print(f"inputs tried: {tried} documents, {cli_tried} command lines; fixes applied: {fixes}; "
+          f"wrong fixes: {len(wrong)}; misspelt names: {named_cases}; right name not suggested: {unnamed}")
     return 1 if wrong or unnamed else 0
 
 

@@ -23,14 +23,23 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator
 
+from click.testing import CliRunner
+
+from agspec.cli.main import cli
 from agspec.diagnostics import Diagnostic
-from agspec.load import Resolver, check_document, load_document
+from agspec.dsl.grammar import keywords
+from agspec.catalogue import GEOMETRY_MATCHED, OFFICIAL_SCENARIOS
+from agspec.controllers import CONTROLLERS
+from agspec.load import Resolver, check_document, load_dsl, load_document
 from agspec.resources import catalogue_dir
+from agspec.spec_index import spec_entries
 from agspec.suggest import Edit, Fix, apply_edits
+from agspec.train.config import ALGORITHMS
 
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden" / "dsl"
 MIN_NAME = 4  # F-SUGGEST: one edit of a name this long stays close to it
+KEYWORDS = frozenset(keywords().values())
 
 XOR_DEMO = """recipe xor_demo {
     raw A, B
@@ -139,7 +148,7 @@ def _mutations(rel: str, text: str, valid_names: dict[str, list[str]], every: in
             continue
         word = m.group(2)
         for k, bad in enumerate(misspellings(word)):
-            if k % (every * 3):
+            if k % (every * 3) or bad in KEYWORDS:  # `recipes` -> `recipe` is a misplaced keyword, not a typo
                 continue
             yield f"{n}:{word}={bad}", _replace_span(text, (n, len(m.group(1)) + 1, n, m.end() + 1), bad), word
     # precedence dropped, and an earlier operation consuming a later one's output
@@ -188,8 +197,7 @@ def _kind_of(ptr: str) -> str:
 
 
 def load_document_text(rel: str, text: str):
-    """(IR, source map) of a catalogue text, loaded from a scratch copy."""
-    from agspec.load import load_dsl
+    """(IR, source map) of a catalogue text."""
     doc = load_dsl(text, rel)
     return (doc.ir, doc.srcmap) if doc.ir is not None else None
 
@@ -249,6 +257,42 @@ def _rename(ir: dict, ptr: str, key: str, new: str) -> dict:
     parent.clear()
     parent.update({(new if k == key else k): v for k, v in items})
     return copy
+
+
+# --------------------------------------------------------------------------- command-line names
+
+
+def cli_cases(every: int = 1) -> Iterator[tuple[list[str], str]]:
+    """(argv, the name it must suggest): every name a command line takes — a controller, an algorithm,
+    a scenario, a spec ID — misspelt by one edit, when no other valid name is one edit away."""
+    ids = sorted({e.id for e in spec_entries() if "-" in e.id})
+    kinds = [
+        (CONTROLLERS, lambda bad: ["run", "flow-easy", "--controller", bad, "--horizon", "1"]),
+        (ALGORITHMS, lambda bad: ["train", "--algorithm", bad, "--scenario", "flow-easy", "-o", "unused"]),
+        ((*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED), lambda bad: ["run", bad, "--horizon", "1"]),
+        (ids[::7], lambda bad: ["explain", "--", bad]),
+    ]
+    n = 0
+    for names, argv in kinds:
+        valid = ids if names is not CONTROLLERS and names and names[0] in ids else names
+        for name in names:
+            for bad in misspellings(name):
+                if len(bad) < MIN_NAME or bad.upper() == name.upper() or any(
+                        _one_edit(o.upper(), bad.upper()) for o in valid if o != name):
+                    continue
+                n += 1
+                if n % every == 0:
+                    yield argv(bad), name
+
+
+def check_cli(argv: list[str], name: str) -> bool:
+    """Whether the command names ``name`` in its "did you mean" (and fails); for `explain`, a prefix of
+    an ID may instead list the entries it starts (F-EXPLAIN), which names it too."""
+    result = CliRunner().invoke(cli, argv, env={"COLUMNS": "300"})  # a long ID on one line of a table
+    out = result.output
+    if argv[0] == "explain" and "starting with" in out:
+        return re.search(rf"(?<![\w-]){re.escape(name)}(?![\w-])", out) is not None
+    return result.exit_code != 0 and re.search(rf"did you mean [`']?([\w.-]+, )*{re.escape(name)}(?![\w-])", out) is not None
 
 
 # --------------------------------------------------------------------------- the check

@@ -16,7 +16,7 @@ from agspec.cli.main import cli
 from agspec.diagnostics import Diagnostic
 from agspec.load import Resolver, check_document, load_document
 from agspec.suggest import Change, Edit, apply_edits, closest, render_change
-from fix_cases import Case, cases, check, misspellings
+from fix_cases import Case, cases, check, check_cli, cli_cases, misspellings
 
 SHARE = list(itertools.islice(cases(every=60), 0, None, 5))
 
@@ -128,6 +128,14 @@ def test_one_edit_finds_the_name(name: str):
     for bad in misspellings(name):
         if bad.upper() != name.upper() and len(bad) >= 4 and not any(k != name and bad in misspellings(k) for k in known):
             assert closest(bad, known, case=False)[:1] == [name], bad
+
+
+CLI_SHARE = list(cli_cases(every=9))
+
+
+@pytest.mark.parametrize("argv, name", CLI_SHARE, ids=[" ".join(a[:2]) for a, _ in CLI_SHARE])
+def test_misspelt_command_line_names_are_suggested(argv, name):
+    assert check_cli(argv, name), (argv, name)
 
 
 @pytest.mark.parametrize("argv, wanted", [
