@@ -130,7 +130,7 @@ def test_one_edit_finds_the_name(name: str):
             assert closest(bad, known, case=False)[:1] == [name], bad
 
 
-CLI_SHARE = list(cli_cases(every=9))
+CLI_SHARE = list(cli_cases(every=30))
 
 
 @pytest.mark.parametrize("argv, name", CLI_SHARE, ids=[" ".join(a[:2]) for a, _ in CLI_SHARE])
