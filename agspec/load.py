@@ -458,8 +458,12 @@ def _is_dsl(doc: Document) -> bool:
 
 
 def _fix_text(doc: Document) -> str | None:
-    """The text fixes are placed in: only a file's, whose format (.ag or .json) is known (F-FIX)."""
-    return doc.text if doc.path is not None and doc.path.suffix.lower() in SUFFIXES else None
+    """The text fixes are placed in (F-FIX): only a file's, whose format (.ag or .json) is known, and
+    that has its full source map — a large JSON text is mapped to points, not spans
+    (F-LIMITS-POSITIONS), so no edit could be placed exactly."""
+    if doc.path is None or doc.path.suffix.lower() not in SUFFIXES or not doc.srcmap:
+        return None
+    return doc.text
 
 
 def resolve_scenario_name(name: str, search_paths: Sequence[str | Path] = ()) -> Path | None:
