@@ -10,6 +10,20 @@ name (controller, algorithm, scenario, spec ID) misspelt by one edit; every diag
 applied to the file and the file validated again: the fix is wrong if its error stays or an error
 is added. For a misspelt name, the diagnostics must name the right one. Prints the figures; the
 bounded share is tests/test_fixes.py.
+
+Figures (shared 2-core machine):
+
+* before diagnostics carried fixes — the agspec of 6a69b00, each hint's prose read as its edit:
+  `python benchmarks/fuzz_fixes.py --every 5 --from-hints`: 907 documents, 591 command lines; 724
+  edits, wrong: 6 AG305 "add `after X`" closing a precedence cycle (AG303), 49 AG305 "add `after
+  X`" written as a second `after` field (AG206), 1 AG104 "did you mean `operation`" for a misplaced
+  `duration` (85 AG204 edits in JSON that prose cannot place are not counted); right name not
+  suggested: 330 of 1441 (197 recipe, profile and variant names in documents, 128 `run` controllers
+  and scenarios, 5 `train --algorithm`).
+* now, the same share: `python benchmarks/fuzz_fixes.py --every 5`: 907 documents, 614 command
+  lines; 938 fixes, 0 wrong; 1464 misspelt names, 0 not suggested.
+* now, all of it: `python benchmarks/fuzz_fixes.py`: 3612 documents, 3071 command lines; 3821
+  fixes, 0 wrong; 6626 misspelt names, 0 not suggested.
 """
 
 from __future__ import annotations
