@@ -19,6 +19,7 @@ from agspec.interop.original import ExportError, instance_definition, instance_s
 from agspec.ir.fingerprint import fingerprint
 from agspec.ir.instance import make_instance
 from agspec.resources import catalogue_dir
+from agspec.suggest import did_you_mean
 
 # Table order of the paper (family-major, easy -> hard).
 OFFICIAL_SCENARIOS: tuple[str, ...] = (
@@ -121,7 +122,7 @@ def load_scenario_bundle(name_or_path: str | Path, search_paths: Sequence[str | 
     else:
         found = resolver.resolve_scenario_name(target)
         if found is None:
-            raise CatalogueError(_unknown_scenario(target))
+            raise CatalogueError(_unknown_scenario(target, resolver.names("scenario")))
         doc = resolver.load_path(found)
     _check(doc, resolver, check_document)
     if doc.kind != "scenario":
@@ -196,8 +197,9 @@ def _dependency(bound: Any, origin: Any, kind: str, name: str, check_document: C
     return dep.ir
 
 
-def _unknown_scenario(name: str) -> str:
-    return (f"unknown scenario `{name}` (official: {', '.join(OFFICIAL_SCENARIOS)}; "
+def _unknown_scenario(name: str, known: Iterable[str] = ()) -> str:
+    return (f"unknown scenario `{name}`{did_you_mean(name, [*OFFICIAL_SCENARIOS, *GEOMETRY_MATCHED, *known])} "
+            f"(official: {', '.join(OFFICIAL_SCENARIOS)}; "
             f"matched: {', '.join(GEOMETRY_MATCHED)}; or give a .ag/.json file)")
 
 

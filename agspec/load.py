@@ -37,6 +37,7 @@ from agspec.dsl.parse import parse
 from agspec.formats import limits, positions
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
+from agspec.suggest import Change, Fix, closest, line_removal
 
 DOCUMENT_KINDS = ("recipe", "profile", "scenario")  # what can be referenced by name
 SUFFIXES = (".ag", ".json")
@@ -319,7 +320,7 @@ class Resolver:
         visit(origin)
         return out
 
-    def _candidates(self, kind: str, name: str, origin: Document | None) -> Iterable[Path]:
+    def _dirs(self, kind: str, origin: Document | None) -> list[Path]:
         plural = f"{kind}s"
         dirs: list[Path] = []
         if origin is not None and origin.path is not None:
@@ -329,8 +330,21 @@ class Resolver:
             dirs += [base, base / plural]
         if self.catalogue:
             dirs.append(catalogue_dir() / plural)
+        return dirs
+
+    def names(self, kind: str, origin: Document | None = None) -> list[str]:
+        """The names a reference of ``kind`` could mean from ``origin`` (F-SUGGEST): the documents
+        of its includes and the file names of the directories searched."""
+        origin = origin if origin is not None else self.origin
+        found = [d.name for d in self.includes(origin) if d.kind == kind and d.name] if origin is not None else []
+        for d in self._dirs(kind, origin):
+            if d.is_dir():
+                found += [p.stem for p in d.iterdir() if p.suffix.lower() in SUFFIXES]
+        return sorted(set(found))
+
+    def _candidates(self, kind: str, name: str, origin: Document | None) -> Iterable[Path]:
         seen: set[Path] = set()
-        for d in dirs:
+        for d in self._dirs(kind, origin):
             for suffix in SUFFIXES:
                 p = d / f"{name}{suffix}"
                 key = p.resolve() if p.exists() else p
@@ -387,8 +401,7 @@ class Resolver:
                 where = dict(file=doc.file, line=use.span[0], col=use.span[1], end_line=use.span[2],
                              end_col=use.span[3])
                 if not target.is_file():
-                    diags.append(Diagnostic(code="AG005", message=f"cannot find the used file `{use.path}`",
-                                            hint=f"paths are relative to {doc.path.parent or '.'}", **where))
+                    diags.append(self._missing_use(doc, use, where))
                     continue
                 used = self.load_path(target)
                 errors = sum(1 for d in used.diagnostics if d.severity == "error")
@@ -410,11 +423,47 @@ class Resolver:
                 continue
             # F-CODES: a name in the product mix is AG412, the profile AG414; AG005 is for `use` files
             code, what = ("AG412", "unknown recipe") if kind == "recipe" else ("AG414", "unknown geometry profile")
-            issue = Issue(code, f"{what} `{name}`: no file declares it", ptr,
-                          hint=f"add `use \"path/{name}.ag\"`, put {name}.ag next to this file or in "
-                               f"a `{kind}s/` directory, or pass a search path")
-            diags.append(locate(issue, doc.file, doc.srcmap))
+            match = closest(name, self.names(kind, doc))
+            if match:  # F-SUGGEST: a misspelt name is corrected in place (F-FIX)
+                issue = Issue(code, f"{what} `{name}`: no file declares it; did you mean `{match[0]}`?", ptr,
+                              hint=f"write `{match[0]}`",
+                              change=Change("replace", ptr, match[0], f"replace `{name}` by `{match[0]}`"))
+            else:
+                issue = Issue(code, f"{what} `{name}`: no file declares it", ptr,
+                              hint=f"add `use \"path/{name}.ag\"`, put {name}.ag next to this file or in "
+                                   f"a `{kind}s/` directory, or pass a search path")
+            diags.append(locate(issue, doc.file, doc.srcmap, _fix_text(doc), _is_dsl(doc)))
         return diags
+
+    def _missing_use(self, doc: Document, use: UseRef, where: dict[str, Any]) -> Diagnostic:
+        """AG005 for a `use` file that does not exist.  A path naming an official catalogue file
+        (`…/recipes/pair_assembly.ag`) is not needed at all: official names resolve from the
+        installed catalogue without `use` (F-DSL-USE), so the fix deletes the line."""
+        used = Path(use.path)
+        kind = used.parent.name[:-1] if used.parent.name.endswith("s") else ""
+        official = kind in DOCUMENT_KINDS and self.catalogue and (catalogue_dir() / used.parent.name / used.name).is_file()
+        message = f"cannot find the used file `{use.path}`"
+        if official and doc.text is not None:
+            return Diagnostic(code="AG005", message=message, **where,
+                              hint=f"`{used.stem}` is an official {kind}: official names resolve from the installed "
+                                   "catalogue without `use` (F-DSL-USE); delete this line",
+                              fix=Fix("delete this `use` line", (line_removal(doc.text, use.span[0]),)))
+        return Diagnostic(code="AG005", message=message, **where,
+                          hint=f"paths are relative to the file's directory ({doc.path.parent if doc.path else '.'}); "
+                               "official names resolve without `use`")
+
+
+def _is_dsl(doc: Document) -> bool:
+    return doc.path is not None and doc.path.suffix.lower() == ".ag"
+
+
+def _fix_text(doc: Document) -> str | None:
+    """The text fixes are placed in (F-FIX): only a file's, whose format (.ag or .json) is known, and
+    that has its full source map — a large JSON text is mapped to points, not spans
+    (F-LIMITS-POSITIONS), so no edit could be placed exactly."""
+    if doc.path is None or doc.path.suffix.lower() not in SUFFIXES or not doc.srcmap:
+        return None
+    return doc.text
 
 
 def resolve_scenario_name(name: str, search_paths: Sequence[str | Path] = ()) -> Path | None:
@@ -523,7 +572,7 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
         issues = importlib.import_module("agspec.ir.validate").rule_codes(doc.ir, issues)
     issues = [_dsl_hint(doc, i) for i in issues]
     where = srcmap(i.pointer for i in issues) if issues else {}
-    diags += [locate(i, doc.file, where) for i in issues]
+    diags += [locate(i, doc.file, where, _fix_text(doc), _is_dsl(doc)) for i in issues]
     if any(i.severity == "error" for i in issues):
         return diags
     resolver = (resolver or Resolver()).bind(doc)
@@ -541,5 +590,5 @@ def check_document(doc: Document, resolver: Resolver | None = None, *, semantic:
             unresolved = {d.pointer for d in references if d.pointer}
             found = [i for i in found or [] if i.pointer not in unresolved]
             where = srcmap(i.pointer for i in found) if found else {}
-            diags += [locate(i, doc.file, where) for i in found]
+            diags += [locate(i, doc.file, where, _fix_text(doc), _is_dsl(doc)) for i in found]
     return diags

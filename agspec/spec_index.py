@@ -6,7 +6,6 @@ invariant (`INV-…`) heading must be exercised by at least one case.
 
 from __future__ import annotations
 
-import difflib
 import re
 from dataclasses import dataclass
 from functools import lru_cache
@@ -14,6 +13,7 @@ from pathlib import Path
 from typing import Iterable
 
 from agspec.resources import spec_dir
+from agspec.suggest import closest
 
 # `### R-PICK — picks`: level-3 heading, an upper-case ID, then an em dash (or hyphen) and the title.
 _HEADING = re.compile(r"^###\s+([A-Z][A-Z0-9]*(?:-[A-Z0-9]+)+)\s+(?:—|-{1,2})\s+(.*?)\s*$")
@@ -139,4 +139,4 @@ def similar_ids(ident: str, root: Path | None = None, n: int = 5) -> list[str]:
     ids = list(dict.fromkeys(e.id for e in _entries(str(root or spec_dir()))))
     wanted = ident.strip().upper()
     prefixed = [i for i in ids if wanted and (i.startswith(wanted) or wanted in i)]
-    return list(dict.fromkeys(prefixed[:n] + difflib.get_close_matches(wanted, ids, n=n, cutoff=0.6)))[:n]
+    return list(dict.fromkeys(prefixed[:n] + closest(wanted, ids, n=n, case=False)))[:n]  # F-SUGGEST

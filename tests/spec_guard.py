@@ -49,17 +49,18 @@ def _prefixes(ids: set[str]) -> list[str]:
 def citations(root: Path, dirs: tuple[str, ...], ids: set[str], globs: tuple[str, ...] = ("*.py",),
               skip: tuple[str, ...] = ()) -> dict[str, list[str]]:
     """ID-shaped tokens with a spec prefix cited under ``dirs``: ID -> [file:line]."""
+    paths = [path for d in dirs for glob in globs for path in sorted((root / d).rglob(glob)) if path.name not in skip]
+    return _cited_in(root, paths, ids)
+
+
+def _cited_in(root: Path, paths: list[Path], ids: set[str]) -> dict[str, list[str]]:
     # not inside a regular expression's character class (``[A-Z0-9]``)
     pattern = re.compile(rf"(?<![\w\[-])((?:{'|'.join(_prefixes(ids))})-[A-Z][A-Z0-9]*(?:-[A-Z0-9]+)*)(?![\w\]-])")
     out: dict[str, list[str]] = {}
-    for d in dirs:
-        for glob in globs:
-            for path in sorted((root / d).rglob(glob)):
-                if path.name in skip:
-                    continue
-                for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-                    for m in pattern.finditer(line):
-                        out.setdefault(m.group(1), []).append(f"{path.relative_to(root)}:{lineno}")
+    for path in paths:
+        for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            for m in pattern.finditer(line):
+                out.setdefault(m.group(1), []).append(f"{path.relative_to(root)}:{lineno}")
     return out
 
 
@@ -67,6 +68,15 @@ def undefined_citations(root: Path) -> list[str]:
     """Cited in code or tests but defined nowhere in the spec."""
     ids = defined_ids(root)
     cited = citations(root, ("agspec", "tests"), ids)
+    return sorted(f"{ident} ({where[0]})" for ident, where in cited.items() if ident not in ids)
+
+
+def undefined_doc_citations(root: Path) -> list[str]:
+    """IDs the user documentation (docs/*.md, README.md) cites to say where a behaviour is specified,
+    but that the spec does not define."""
+    ids = defined_ids(root)
+    pages = sorted((root / "docs").glob("*.md")) + [p for p in (root / "README.md",) if p.is_file()]
+    cited = _cited_in(root, pages, ids)
     return sorted(f"{ident} ({where[0]})" for ident, where in cited.items() if ident not in ids)
 
 

@@ -2,8 +2,10 @@
 
 Convention (also described in docs/validate-and-write-recipes.md, "How the docs are tested"):
 in fenced ```console / ```bash blocks, a line starting with ``$ `` is a command, run with bash in a
-scratch directory that links ``catalogue/``, ``conformance/`` and ``examples/`` and holds the files of blocks
-preceded by ``<!-- file: NAME -->``.  Lines after a command are expected output (each must occur in
+fresh empty directory — as a reader runs it, with agspec installed and nothing of the repository —
+that holds only the files of blocks preceded by ``<!-- file: NAME -->`` and what earlier commands wrote.
+``<!-- test: clone -->`` marks a block whose page says it runs from the root of a clone (it uses
+``examples/``): it alone gets the clone's ``examples/`` linked.  Lines after a command are expected output (each must occur in
 stdout+stderr; ``...`` lines are skipped).  ``<!-- test: exit=N -->`` before a block sets the expected
 exit status (default 0), ``<!-- test: slow -->`` marks it slow, ``<!-- test: skip -->`` excludes it.
 Fenced ```python blocks without a file marker are run as scripts in the same directory.
@@ -36,6 +38,7 @@ class Block:
     exit: int = 0
     slow: bool = False
     skip: bool = False
+    clone: bool = False
     commands: list[tuple[str, list[str]]] = field(default_factory=list)
 
 
@@ -64,6 +67,8 @@ def extract(text: str) -> list[Block]:
                     block.slow = True
                 elif value == "skip":
                     block.skip = True
+                elif value == "clone":
+                    block.clone = True
                 elif value.startswith("exit="):
                     block.exit = int(value[5:])
             if block.lang in ("console", "bash"):
@@ -82,10 +87,24 @@ def extract(text: str) -> list[Block]:
     return blocks
 
 
+CLONE = ("examples",)  # what a `clone` block finds beside it
+REPO_PATH = re.compile(r"(?<![\w./-])(?:catalogue|conformance|examples|benchmarks|spec|schemas|tests)/")
+
+
 def _scratch(tmp_path: Path) -> Path:
-    for name in ("catalogue", "conformance", "examples"):
-        (tmp_path / name).symlink_to(ROOT / name)
-    return tmp_path
+    """A fresh empty directory (F-DSL-USE: official names need no file of the repository)."""
+    where = tmp_path / "fresh"
+    where.mkdir()
+    return where
+
+
+def _clone_links(where: Path, on: bool) -> None:
+    for name in CLONE:
+        link = where / name
+        if on and not link.exists():
+            link.symlink_to(ROOT / name)
+        elif not on and link.is_symlink():
+            link.unlink()
 
 
 def _env() -> dict[str, str]:
@@ -102,6 +121,7 @@ def run_blocks(blocks: list[Block], where: Path, doc: str) -> None:
         if block.file:
             (where / block.file).write_text(block.text, encoding="utf-8")
             continue
+        _clone_links(where, block.clone)
         if block.lang == "python":
             proc = subprocess.run([sys.executable, "-c", block.text], cwd=where, env=_env(), capture_output=True,
                                   text=True, timeout=600)
@@ -153,6 +173,40 @@ def test_extractor_follows_the_convention():
     assert console.commands == [("agspec validate a.ag", ["error[AG1"]), ("echo hi", [])]
     assert python.lang == "python" and python.exit == 0 and not python.slow
     assert skipped.skip and skipped.commands == [("false", [])]
+
+
+def test_only_clone_blocks_use_repository_paths():
+    """A command that reads a repository path runs only from a clone, and says so; the others run
+    from a fresh empty directory."""
+    wrong = []
+    for doc in DOCS:
+        for b in extract(doc.read_text(encoding="utf-8")):
+            if b.skip or b.clone:
+                continue
+            texts = [c for c, _ in b.commands] + ([b.text] if b.lang == "python" and not b.file else [])
+            texts += [b.text] if b.file and b.lang == "ag" else []
+            wrong += [f"{doc.name}:{b.line}: {t.splitlines()[0]}" for t in texts if REPO_PATH.search(t)]
+    assert not wrong, wrong
+
+
+TORCH = "torch==2.13.0"  # the CPU build; an unpinned torch (or the `train` extra alone) pulls a CUDA build
+
+
+def test_every_install_of_torch_pins_the_cpu_build():
+    """Every docs line that installs PyTorch, directly or through the `train` extra, installs the
+    pinned CPU build first (on the same line or an earlier line of the same block)."""
+    wrong = []
+    for doc in DOCS:
+        text = doc.read_text(encoding="utf-8")
+        for block in [b.text for b in extract(text)] + ["\n".join(re.findall(r"`([^`]*pip install[^`]*)`", text))]:
+            pinned = False
+            for line in block.splitlines():
+                if "pip install" not in line:
+                    continue
+                pinned = pinned or TORCH in line
+                if re.search(r"\btorch\b|\[[^\]]*\btrain\b", line.split("#")[0]) and not pinned:
+                    wrong.append(f"{doc.name}: {line.strip()}")
+    assert not wrong, wrong
 
 
 def test_every_doc_shows_at_least_one_tested_command():

@@ -53,6 +53,18 @@ def test_planted_undefined_citation_is_reported(copy_root):
     assert any(line.startswith(f"{TELEPORT} (agspec/interp/rules.py") for line in G.undefined_citations(copy_root))
 
 
+def test_every_id_the_docs_cite_is_defined_in_the_spec():
+    """A page that paraphrases the spec cites the ID it paraphrases, e.g. "(S-MIX)"; that ID exists."""
+    assert G.undefined_doc_citations(ROOT) == []
+
+
+def test_planted_undefined_doc_citation_is_reported(tmp_path: Path):
+    shutil.copytree(ROOT / "spec", tmp_path / "spec")
+    shutil.copytree(ROOT / "docs", tmp_path / "docs")
+    _edit(tmp_path / "docs" / "write-a-scenario.md", "(S-MIX)", "(S-" + "MIXTURE)")
+    assert any(line.startswith("S-" + "MIXTURE (docs/write-a-scenario.md:") for line in G.undefined_doc_citations(tmp_path))
+
+
 def test_every_rule_invariant_and_metric_is_implemented_and_tested():
     missing = [m for m in G.uncited(ROOT) if not (m.endswith("no test cites it") and m.split(":")[0] in UNTESTED)]
     assert missing == []

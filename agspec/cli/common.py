@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.text import Text
 
 from agspec.formats.schemas import self_check
+from agspec.suggest import closest
 
 # Exit codes (spec/09-formats.md, F-EXIT-CODES). Categorical, never counts.
 EXIT_OK = 0
@@ -21,6 +22,19 @@ EXIT_INTERNAL = 4  # a bug in agspec itself
 
 stdout = Console(highlight=False, soft_wrap=True)
 stderr = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+class Choice(click.Choice):
+    """click's Choice whose error names the closest choice (F-SUGGEST), like every other unknown name."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter as exc:
+            match = closest(value, [str(c) for c in self.choices])
+            if not match:
+                raise
+            self.fail(f"{exc.message.rstrip('.')}; did you mean {match[0]!r}?", param, ctx)
 
 
 def emit_json(data: Any, schema: str) -> None:
@@ -61,7 +75,7 @@ SEED_RANGE = click.IntRange(0, SEED_MAX)
 FORMAT_OPTION = click.option(
     "--format",
     "fmt",
-    type=click.Choice(["table", "json"]),
+    type=Choice(["table", "json"]),
     default="table",
     show_default=True,
     help="Output as a rich table or machine-readable JSON.",

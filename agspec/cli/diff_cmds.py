@@ -22,6 +22,7 @@ from agspec.cli.common import (
     EXIT_USAGE,
     FORMAT_OPTION,
     SEED_RANGE,
+    Choice,
     emit_json,
     fail,
     stderr,
@@ -56,7 +57,7 @@ DEFAULT_SCENARIOS = ("flow-easy", "coalition-medium", "concurrency-medium")
 @horizon_option("Ticks per episode.", default=60)
 @click.option("--seed", type=SEED_RANGE, default=0, show_default=True,
               help="Seed of this command's own random choices: the controllers, small instances and hypothesis.")
-@click.option("--controller", "controllers", multiple=True, type=click.Choice(["random", "greedy", "parallel-aware"]),
+@click.option("--controller", "controllers", multiple=True, type=Choice(["random", "greedy", "parallel-aware"]),
               help="Controllers choosing the actions (repeatable). Default: random and greedy.")
 @click.option("--small", type=click.IntRange(0), default=1, show_default=True,
               help="Small generated instances per scenario (its recipes on a 1..3 x 2..4 grid).")

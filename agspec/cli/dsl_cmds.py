@@ -52,6 +52,7 @@ def diagnostic_json(d: Diagnostic) -> dict[str, Any]:
         "code": d.code, "severity": d.severity, "message": d.message, "file": d.file,
         "line": d.line, "col": d.col, "end_line": d.end_line, "end_col": d.end_col,
         "hint": d.hint, "pointer": d.pointer, "notes": list(d.notes),
+        "fix": d.fix.to_json() if d.fix is not None else None,
     }
 
 

@@ -15,10 +15,10 @@ import click
 import yaml
 
 from agspec.campaign.executor import DEFAULT_RETRIES, EXECUTORS, ExecutorSpec
-from agspec.cli.common import fail
+from agspec.cli.common import Choice, fail
 
 _OPTIONS = [
-    click.option("--executor", type=click.Choice(EXECUTORS), default="local", show_default=True,
+    click.option("--executor", type=Choice(EXECUTORS), default="local", show_default=True,
                  help="Where items run: local processes (-j) or Ray actors (needs pip install 'agspec[ray]')."),
     click.option("--address", default=None, metavar="ADDR",
                  help="With --executor ray: `auto`, `ray://host:port` or `host:port` of a running cluster "

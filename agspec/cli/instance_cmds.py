@@ -24,6 +24,7 @@ from agspec.catalogue import (
     write_lock,
 )
 from agspec.cli.common import (
+    Choice,
     EXIT_INVALID,
     EXIT_OK,
     EXIT_USAGE,
@@ -181,7 +182,7 @@ def _instance_for_export(target: str, index: int | None, seed: int | None) -> di
 @click.argument("scenario")
 @INDEX_OPTION
 @SEED_OPTION
-@click.option("--to", "to_format", type=click.Choice(EXPORT_FORMATS), default=EXPORT_FORMATS[0],
+@click.option("--to", "to_format", type=Choice(EXPORT_FORMATS), default=EXPORT_FORMATS[0],
               show_default=True, help="Target format.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the definition to FILE (default: stdout).")

@@ -12,6 +12,7 @@ from agspec.cli.common import (
     EXIT_INVALID,
     EXIT_USAGE,
     SEED_RANGE,
+    Choice,
     fail,
     stderr,
     stdout,
@@ -37,7 +38,7 @@ from agspec.controllers import CONTROLLERS
               help="With --impl: the scenario (official name or .ag file) or instance .json to record.")
 @click.option("--index", type=SEED_RANGE, default=0, show_default=True, help="With --scenario: the suite index.")
 @horizon_option("With --impl: ticks to record.", default=120)
-@click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True,
+@click.option("--controller", type=Choice(CONTROLLERS), default="greedy", show_default=True,
               help="With --impl: the reference controller choosing the actions.")
 @click.option("--observations/--no-observations", default=True, show_default=True,
               help="With --impl: record every robot's observation and mask in the trace.")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, fail, stdout
+from agspec.cli.common import Choice, EXIT_INVALID, EXIT_USAGE, fail, stdout
 from agspec.cli.run_cmds import METRICS
 
 FORMATS = ("markdown", "latex", "svg", "png", "pdf")
@@ -15,10 +15,10 @@ FORMATS = ("markdown", "latex", "svg", "png", "pdf")
 
 @click.command("report")
 @click.argument("bundles", nargs=-1, required=True, type=click.Path(path_type=Path), metavar="BUNDLE…|RUN_DIR…")
-@click.option("--to", "to", type=click.Choice(FORMATS), default="markdown", show_default=True)
+@click.option("--to", "to", type=Choice(FORMATS), default="markdown", show_default=True)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Output file (default: stdout for markdown/latex, BUNDLE.<format> for figures).")
-@click.option("--metric", "metric_keys", multiple=True, type=click.Choice(METRICS),
+@click.option("--metric", "metric_keys", multiple=True, type=Choice(METRICS),
               help="Metrics of the tables (default delivered and completion_rate).")
 @click.option("--no-published", is_flag=True, help="Leave out the paper's published MARL rows.")
 @click.option("--allow-incomplete", is_flag=True,

@@ -22,6 +22,7 @@ from agspec.cli.common import (
     EXIT_INVALID,
     FORMAT_OPTION,
     SEED_RANGE,
+    Choice,
     emit_json,
     fail,
     stderr,
@@ -115,9 +116,9 @@ def load_instance(target: str, index: int | None, seed: int | None) -> dict[str,
 @click.option("--index", type=SEED_RANGE, default=None, help="Suite index of the instance (default 0).")
 @click.option("--generation-seed", "seed", type=SEED_RANGE, default=None,
               help="An instance from this explicit generation seed instead of a suite index (S-SEEDS).")
-@click.option("--controller", type=click.Choice(CONTROLLERS), default="greedy", show_default=True)
+@click.option("--controller", type=Choice(CONTROLLERS), default="greedy", show_default=True)
 @horizon_option()
-@click.option("--format", "fmt", type=click.Choice(["table", "json", "result-v1"]), default="table", show_default=True)
+@click.option("--format", "fmt", type=Choice(["table", "json", "result-v1"]), default="table", show_default=True)
 @click.option("--trace", "trace_path", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace exchange format (JSON Lines) to this file.")
 @click.option("--observations/--no-observations", default=False, help="Include every agent's observation in the trace.")
@@ -211,14 +212,14 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
               help="A policy to evaluate beside the references (F-POLICY-SPEC); repeatable.")
 @click.option("--name", "names", multiple=True, help="Label of the --policy of the same position.")
 @click.option("--policy-version", "versions", multiple=True, help="Version recorded for the --policy of the same position.")
-@click.option("--controller", "controllers", multiple=True, type=click.Choice(CONTROLLERS),
+@click.option("--controller", "controllers", multiple=True, type=Choice(CONTROLLERS),
               help="Reference controllers (default: all four).")
 @click.option("--scenario", "scenarios", multiple=True, help="Scenarios (default: the nine official ones).")
-@click.option("--split", type=click.Choice(["final-test", "validation", "catalogue", "geometry-matched"]), default=None,
+@click.option("--split", type=Choice(["final-test", "validation", "catalogue", "geometry-matched"]), default=None,
               help="Instance split (default final-test).")
 @click.option("--indices", default=None, help="Suite indices inside the split, e.g. 1000-1049 or 1000,1003,1005-1007.")
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
-@click.option("--metric", "metric_keys", multiple=True, type=click.Choice(METRICS), default=None,
+@click.option("--metric", "metric_keys", multiple=True, type=Choice(METRICS), default=None,
               help="Metrics to show (default delivered; with --policy also admitted completion).")
 @click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
 @click.option("--strict", is_flag=True, help="A masked action is an error instead of idle (F-POLICY-ILLEGAL).")

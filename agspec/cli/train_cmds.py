@@ -16,6 +16,7 @@ from agspec.cli.common import (
     EXIT_INVALID,
     EXIT_USAGE,
     SEED_RANGE,
+    Choice,
     emit_json,
     fail,
     stderr,
@@ -48,7 +49,7 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
 
 
 @click.command("train")
-@click.option("--algorithm", type=click.Choice(ALGORITHMS), default=None, help="The MARL reference to train.")
+@click.option("--algorithm", type=Choice(ALGORITHMS), default=None, help="The MARL reference to train.")
 @click.option("--scenario", default=None, metavar="NAME|FILE.ag", help="Official scenario name or a scenario file.")
 @click.option("--seed", type=SEED_RANGE, default=None, help="Algorithm seed (the paper used 0-9).")
 @output_option("Run directory (new or empty; with --resume, the cut run's); with --campaign, the campaign's.",
@@ -71,7 +72,7 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
               help="Override one setting, e.g. --set ppo.clip=0.2 (repeatable; see spec/16-training.md).")
 @click.option("--resume", is_flag=True, help="Continue the cut run in -o/--output from its last checkpoint.")
 @click.option("--print-config", is_flag=True, help="Print the resolved configuration and exit without training.")
-@click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True,
+@click.option("--format", "fmt", type=Choice(["table", "json"]), default="table", show_default=True,
               help="Final summary as a table or run.json's JSON.")
 @executor_options
 def train(algorithm: str | None, scenario: str | None, seed: int | None, output: str | None, campaign_plan: str | None,
@@ -161,7 +162,12 @@ def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
         TimeRemainingColumn,
     )
 
-    from agspec.checkpoint.rundir import CHECKPOINT, RunDirError, is_complete, refuse_foreign
+    from agspec.checkpoint.rundir import (
+        CHECKPOINT,
+        RunDirError,
+        is_complete,
+        refuse_foreign,
+    )
 
     try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
         refuse_foreign(out)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from agspec.suggest import choice_message
+
 CONTROLLERS = ("random", "greedy", "parallel-aware", "centralized")
 
 
@@ -30,4 +32,4 @@ def make_controller(name: str, seed: int | None = None, grid: Mapping[str, Any] 
         from agspec.controllers.random_masked import RandomMaskedController
 
         return RandomMaskedController(seed)
-    raise ValueError(f"unknown controller {name!r}; choose one of {', '.join(CONTROLLERS)}")
+    raise ValueError(choice_message("controller", name, CONTROLLERS))  # F-SUGGEST

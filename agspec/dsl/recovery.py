@@ -28,14 +28,14 @@ Syntax error codes (F-DIAGNOSTICS, spec/09-formats.md):
 
 from __future__ import annotations
 
-import difflib
 from typing import Any, Iterable
 
 from lark import Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, UnexpectedToken
 
-from agspec.formats.diagnostics import Diagnostic, Span
 from agspec.dsl.grammar import keywords
+from agspec.formats.diagnostics import Diagnostic, Span
+from agspec.suggest import Edit, Fix, closest
 
 MAX_ERRORS = 20
 
@@ -273,13 +273,13 @@ class _Recovery:
         self.stopped = False
 
     def report(self, code: str, message: str, span: Span, hint: str | None = None,
-               notes: tuple[str, ...] = ()) -> None:
+               notes: tuple[str, ...] = (), fix: Fix | None = None) -> None:
         if span[0] in self.lines_with_errors:
             return
         self.lines_with_errors.add(span[0])
         self.diagnostics.append(Diagnostic(
             code=code, message=message, file=self.file, line=span[0], col=span[1],
-            end_line=span[2], end_col=span[3], hint=hint, notes=notes,
+            end_line=span[2], end_col=span[3], hint=hint, notes=notes, fix=fix,
         ))
 
     def __call__(self, e: UnexpectedInput) -> bool:
@@ -372,17 +372,18 @@ class _Recovery:
                        span: Span, continues: Token | None = None) -> None:
         kw = keywords()
         words = sorted(kw[t] for t in expected if t in kw)
-        close = difflib.get_close_matches(str(tok), words, n=1)
+        close = [] if tok.type in kw else closest(tok, words)  # F-SUGGEST: a keyword is misplaced, not misspelt
         listed = ", ".join(f"`{kw[t]}`" for t in sorted(terms, key=lambda t: kw[t]))
         article = "an" if noun[0] in "aeiou" else "a"
         hint = f"did you mean `{close[0]}`?" if close else f"{article} {noun} is one of {listed}"
+        fix = Fix(f"replace `{tok}` by `{close[0]}`", (Edit(*span, close[0]),)) if close else None  # F-FIX
         if continues is not None and not close:
             hint = f"if `{tok}` continues the list above, add `,` after `{continues}`"
         if tok.type in kw:
             self.report("AG104", f"`{tok}` is not allowed here: expected {describe_expected(expected)}",
-                        span, hint=hint)
+                        span, hint=hint, fix=fix)
         else:
-            self.report("AG104", f"unknown {noun} `{tok}`", span, hint=hint)
+            self.report("AG104", f"unknown {noun} `{tok}`", span, hint=hint, fix=fix)
 
     def _end_of_file(self, ip: Any, expected: set[str], tok: Token) -> None:
         opened = _unclosed_brace(ip)

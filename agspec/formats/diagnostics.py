@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Mapping, Sequence
 
 from agspec.formats.pointer import join
+from agspec.suggest import Change, Fix, render_change
 
 # (line, col, end_line, end_col), all 1-based; end_col is exclusive.
 Span = tuple[int, int, int, int]
@@ -31,6 +32,7 @@ class Issue:
     pointer: str = ""
     hint: str | None = None
     severity: str = "error"
+    change: Change | None = None  # the hint as an IR edit, when it is one (F-FIX)
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,7 @@ class Diagnostic:
     severity: str = "error"
     pointer: str | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    fix: Fix | None = None  # the hint as a text edit of ``file``, when it is one (F-FIX)
 
     def header(self) -> str:
         where = self.file or "<input>"
@@ -89,6 +92,7 @@ class Diagnostic:
     def to_json(self) -> dict:
         data = asdict(self)
         data["notes"] = list(self.notes)
+        data["fix"] = self.fix.to_json() if self.fix is not None else None
         return {k: v for k, v in data.items() if v is not None and v != []}
 
 
@@ -111,8 +115,10 @@ def _source_line(source: str, line: int) -> str | None:
     return text.rstrip("\r")
 
 
-def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None) -> Diagnostic:
-    """Place an IR issue in its file, using the closest mapped ancestor of its pointer."""
+def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None, text: str | None = None,
+           dsl: bool = False) -> Diagnostic:
+    """Place an IR issue in its file, using the closest mapped ancestor of its pointer; with the file's
+    ``text``, its IR change becomes a text edit where it can be placed exactly (F-FIX)."""
     span = None
     if srcmap:
         pointer = issue.pointer
@@ -137,6 +143,7 @@ def locate(issue: Issue, file: str | None, srcmap: Mapping[str, Span] | None) ->
         hint=issue.hint,
         severity=issue.severity,
         pointer=issue.pointer,
+        fix=render_change(issue.change, text, srcmap or {}, dsl) if issue.change is not None else None,
     )
 
 

@@ -10,7 +10,6 @@ cases alike.
 from __future__ import annotations
 
 import copy
-import difflib
 import json
 import os
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from agspec.formats.diagnostics import Issue
 from agspec.formats.pointer import join as json_pointer
 from agspec.formats.pointer import parse as parse_pointer
 from agspec.resources import schemas_dir
+from agspec.suggest import Change, closest
 
 _RANGE = {"minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum", "minItems", "maxItems", "minLength",
           "maxLength", "minProperties", "maxProperties", "multipleOf"}
@@ -180,10 +180,14 @@ def issues(error: ValidationError) -> list[Issue]:
         issues = []
         extras = [k for k in instance if k not in known] if isinstance(instance, dict) else []
         for key in extras:
-            close = difflib.get_close_matches(key, known, n=1)
+            close = closest(key, known)  # F-SUGGEST
             hint = f"did you mean `{close[0]}`?" if close else (
                 "allowed fields: " + ", ".join(known) if known else None)
-            issues.append(Issue("AG204", f"unknown field `{key}`", json_pointer(*path, key), hint=hint))
+            ptr = json_pointer(*path, key)
+            # F-FIX: the rename is an edit only when it does not duplicate a field already set
+            change = Change("rename", ptr, close[0], f"rename `{key}` to `{close[0]}`") \
+                if close and close[0] not in instance else None
+            issues.append(Issue("AG204", f"unknown field `{key}`", ptr, hint=hint, change=change))
         return issues or [Issue("AG204", error.message, ptr)]
     if kw == "not" and isinstance(instance, dict):
         # `not: {anyOf: [{required: [a]}, ...]}` forbids fields a, ... in this context

@@ -16,6 +16,7 @@ from typing import Any, Callable, Mapping
 
 from agspec.checkpoint.rundir import RunDirError, is_complete, read_summary
 from agspec.extras import MissingExtra, require_torch
+from agspec.suggest import choice_message
 from agspec.train.config import ConfigError, resolve
 
 __all__ = ["ConfigError", "MissingExtra", "RunDirError", "is_complete", "load_policy", "read_summary",
@@ -45,7 +46,7 @@ def resolve_config(algorithm: str, scenario: str, seed: int,
     from agspec.train.config import ALGORITHMS
 
     if algorithm not in ALGORITHMS:  # before loading the scenario: the cheaper error first
-        raise ConfigError(f"unknown algorithm {algorithm!r}; choose one of {', '.join(ALGORITHMS)}")
+        raise ConfigError(choice_message("algorithm", algorithm, ALGORITHMS))  # F-SUGGEST
     return resolve(algorithm, scenario, seed, scenario_family(scenario), overrides)
 
 

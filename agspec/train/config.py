@@ -17,6 +17,8 @@ from typing import Any, Mapping
 
 import yaml
 
+from agspec.suggest import choice_message
+
 from agspec.marl.curriculum import EXECUTION_BASE, FAMILY_SEED_OFFSET, GENERATION_BASE
 
 CONFIG_SCHEMA = "agspec-training-config/1"
@@ -148,7 +150,7 @@ def _merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
 def paper_defaults(algorithm: str) -> dict[str, Any]:
     """The table's configuration of ``algorithm`` (no scenario or seed yet)."""
     if algorithm not in ALGORITHMS:
-        raise ConfigError(f"unknown algorithm {algorithm!r}; choose one of {', '.join(ALGORITHMS)}")
+        raise ConfigError(choice_message("algorithm", algorithm, ALGORITHMS))  # F-SUGGEST
     return {"algorithm": algorithm, **_merge(_COMMON, ALGORITHM_TABLE[algorithm])}
 
 

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import replace
 from typing import Any, Iterable, Protocol, Sequence
 
 from agspec.formats.diagnostics import Issue, json_pointer
-
+from agspec.suggest import Change, closest, did_you_mean
 
 Json = Any
 MAX_ROUTES = 1024  # AG390: XOR routes analysed per recipe
@@ -65,8 +64,16 @@ def _q(names: Iterable[object]) -> str:
 
 
 def _did_you_mean(name: object, known: Iterable[str]) -> str:
-    matches = difflib.get_close_matches(str(name), sorted(set(known)), n=1)
-    return f"; did you mean `{matches[0]}`?" if matches else ""
+    return did_you_mean(name, known)
+
+
+def _fixable(issue: Issue, name: object, known: Iterable[str]) -> Issue:
+    """``issue`` about the unknown name at its pointer, with the fix that writes the closest known name
+    (F-SUGGEST, F-FIX) when there is one."""
+    match = closest(name, known)
+    if not match:
+        return issue
+    return replace(issue, change=Change("replace", issue.pointer, match[0], f"replace `{name}` by `{match[0]}`"))
 
 
 def _prefixed(prefix: str, issues: Iterable[Issue]) -> list[Issue]:

@@ -15,7 +15,7 @@ import networkx as nx
 from agspec.formats.diagnostics import Issue
 from agspec.ir.validate.common import MAX_ROUTES, _err, _list, _ptr, _warn
 from agspec.ir.validate.view import _Op, _RecipeView
-
+from agspec.suggest import Change
 
 Route = Mapping[str, str]  # XOR group id -> chosen alternative
 
@@ -91,17 +91,36 @@ def _unavailable_inputs(view, ops, graph, producers) -> Iterator[_Finding]:
             makers = [p.id for p, _ in producers.get(tok, [])]
             if any(p in before for p in makers):
                 continue
+            change = None
             if makers:
                 maker = makers[0]
                 ref = view.group_of.get(maker, maker)
                 msg = (f"operation `{op.id}` consumes `{tok}`, which `{maker}` produces, but `{maker}` is not "
                        f"a predecessor of `{op.id}`")
-                hint = f"add `after {ref}` to `{op.id}`"
+                if _runs_after(view, ref, op.id):  # `after ref` would close a cycle (AG303): no edit repairs it
+                    hint = (f"`{maker}` already runs after `{op.id}`, so `{op.id}` cannot wait for `{tok}`: consume "
+                            f"`{tok}` in an operation that runs after `{maker}`, or change the order")
+                else:
+                    hint = f"add `after {ref}` to `{op.id}`"
+                    change = Change("append", op.ptr("after"), ref, hint)
             else:
                 msg = (f"operation `{op.id}` consumes `{tok}`, which no predecessor produces and which "
                        "is not a raw material")
                 hint = f"declare `{tok}` as raw material, or produce it in an operation `{op.id}` runs after"
-            yield _Finding(_err("AG305", msg, op.ptr("inputs", m), hint))
+            yield _Finding(replace(_err("AG305", msg, op.ptr("inputs", m), hint), change=change))
+
+
+def _runs_after(view: _RecipeView, ref: str, op_id: str) -> bool:
+    """Whether ``ref`` (an operation, or any alternative of an XOR group) runs after ``op_id`` on some
+    route, or is it: then ``after ref`` in ``op_id`` would be a precedence cycle (RC-PRECEDENCE)."""
+    graph = nx.DiGraph()
+    graph.add_nodes_from(view.op_ids)
+    for op in view.ops:
+        for pred in op.after:
+            for src in view.groups[pred][1] if pred in view.groups else (pred,):
+                graph.add_edge(src, op.id)
+    targets = view.groups[ref][1] if ref in view.groups else (ref,)
+    return any(t == op_id or (t in graph and nx.has_path(graph, op_id, t)) for t in targets)
 
 
 def _multiple_uses(consumers, producers) -> Iterator[_Finding]:

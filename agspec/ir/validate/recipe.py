@@ -16,6 +16,7 @@ from agspec.ir.validate.common import (
     MAX_CYCLES,
     _dict,
     _did_you_mean,
+    _fixable,
     _err,
     _is_int,
     _is_num,
@@ -122,10 +123,10 @@ def _check_after(view: _RecipeView) -> list[Issue]:
             if not isinstance(pred, str):
                 continue
             if pred not in known:
-                out.append(_err(
+                out.append(_fixable(_err(
                     "AG302", f"operation `{op.id}` runs after `{pred}`, which is neither an operation "
                     f"nor an XOR group of this recipe{_did_you_mean(pred, known)}",
-                    op.ptr("after", m), "name an operation or an XOR group declared in this recipe"))
+                    op.ptr("after", m), "name an operation or an XOR group declared in this recipe"), pred, known))
             elif pred in view.group_of:
                 group = view.group_of[pred]
                 out.append(_err(
@@ -203,9 +204,9 @@ def _check_xor(ir: Json, view: _RecipeView) -> list[Issue]:
                 continue
             where = _ptr("xor", g, "alternatives", a)
             if alt not in ids:
-                out.append(_err("AG321", f"XOR group `{gid}` lists `{alt}`, which is not an operation "
-                                f"of this recipe{_did_you_mean(alt, ids)}", where,
-                                "list operations declared in this recipe"))
+                out.append(_fixable(_err("AG321", f"XOR group `{gid}` lists `{alt}`, which is not an operation "
+                                         f"of this recipe{_did_you_mean(alt, ids)}", where,
+                                         "list operations declared in this recipe"), alt, ids))
                 continue
             if alt in member_of:
                 msg = (f"XOR group `{gid}` lists `{alt}` twice" if member_of[alt] == gid
@@ -306,10 +307,10 @@ def _check_roles(view: _RecipeView) -> list[Issue]:
             if not isinstance(binds, str):
                 continue
             if binds not in inputs:
-                out.append(_err(
+                out.append(_fixable(_err(
                     "AG341", f"role `{name}` of `{op.id}` is bound to `{binds}`, which `{op.id}` does not "
                     f"consume{_did_you_mean(binds, inputs)}", op.ptr("roles", r, "binds"),
-                    f"bind the role to one of the inputs ({_q(inputs)}) or leave it unbound"))
+                    f"bind the role to one of the inputs ({_q(inputs)}) or leave it unbound"), binds, inputs))
             elif binds in bound:
                 out.append(_err(
                     "AG342", f"input `{binds}` of `{op.id}` is bound to two roles, `{bound[binds]}` and "
@@ -362,10 +363,11 @@ def _check_resources(ir: Json, view: _RecipeView) -> list[Issue]:
                 continue
             seen.add(res)
             if res not in declared:
-                out.append(_warn(
+                out.append(_fixable(_warn(
                     "AG360", f"operation `{op.id}` uses resource `{res}`, which this recipe does not "
                     f"declare{_did_you_mean(res, declared)}; every scenario using the recipe must declare it",
-                    op.ptr("resources", m), f"declare `{res}` with a capacity in the recipe's resources"))
+                    op.ptr("resources", m), f"declare `{res}` with a capacity in the recipe's resources"),
+                    res, declared))
     return out
 
 

@@ -16,6 +16,7 @@ from agspec.ir.validate.common import (
     Resolver,
     _dict,
     _did_you_mean,
+    _fixable,
     _err,
     _is_int,
     _is_num,
@@ -104,8 +105,9 @@ def _check_grid(scenario: Mapping) -> list[Issue]:
                         "raw material enters in the left column and leaves from the right one; they must differ"))
     topo = grid.get("topology", topology.DEFAULT_TOPOLOGY)
     if isinstance(topo, str) and topo not in topology.TOPOLOGIES:
-        out.append(_err("AG411", f"unknown topology `{topo}`{_did_you_mean(topo, topology.TOPOLOGIES)}",
-                        _ptr("grid", "topology"), f"use one of {_q(topology.TOPOLOGIES)}"))
+        out.append(_fixable(_err("AG411", f"unknown topology `{topo}`{_did_you_mean(topo, topology.TOPOLOGIES)}",
+                                 _ptr("grid", "topology"), f"use one of {_q(topology.TOPOLOGIES)}"),
+                            topo, topology.TOPOLOGIES))
     radius = grid.get("radius", topology.DEFAULT_RADIUS)
     if not (_is_int(radius) and radius >= 1):
         out.append(_err("AG411", f"topology radius must be an integer >= 1, got {radius!r}",
@@ -131,9 +133,17 @@ def _check_recipe_refs(scenario: Mapping, resolver: Resolver) -> list[Issue]:
             continue
         seen.add(name)
         if _resolve(resolver, "recipe", name) is None:
-            out.append(_err("AG412", f"unknown recipe `{name}`", _ptr("recipes", m),
-                            "declare the recipe in a .ag file on the search path or use a catalogue recipe"))
+            known = _names(resolver, "recipe")
+            out.append(_fixable(_err("AG412", f"unknown recipe `{name}`{_did_you_mean(name, known)}", _ptr("recipes", m),
+                                     "declare the recipe in a .ag file on the search path or use a catalogue recipe"),
+                                name, known))
     return out
+
+
+def _names(resolver: Resolver | None, kind: str) -> list[str]:
+    """The names a resolver knows for ``kind`` (F-SUGGEST), where it can list them."""
+    names = getattr(resolver, "names", None)
+    return list(names(kind)) if callable(names) else []
 
 
 def _resolve(resolver: Resolver | None, kind: str, name: str) -> Json | None:
@@ -154,14 +164,15 @@ def _check_profile_ref(scenario: Mapping, resolver: Resolver, check_variant: boo
         return []
     profile = _resolve(resolver, "profile", pid)
     if profile is None:
-        return [_err("AG414", f"unknown geometry profile `{pid}`", _ptr("profile", "id"),
-                     "official scenarios use `abstract-v1`")]
+        known = _names(resolver, "profile")
+        return [_fixable(_err("AG414", f"unknown geometry profile `{pid}`{_did_you_mean(pid, known)}", _ptr("profile", "id"),
+                              "official scenarios use `abstract-v1`"), pid, known)]
     variant = ref.get("variant")
     variants = _dict(profile.get("variants"))
     if check_variant and isinstance(variant, str) and variant not in variants:
         known = _q(sorted(variants)) or "none"
-        return [_err("AG415", f"profile `{pid}` has no variant `{variant}`{_did_you_mean(variant, variants)}",
-                     _ptr("profile", "variant"), f"declared variants: {known}")]
+        return [_fixable(_err("AG415", f"profile `{pid}` has no variant `{variant}`{_did_you_mean(variant, variants)}",
+                              _ptr("profile", "variant"), f"declared variants: {known}"), variant, variants)]
     return []
 
 
