@@ -243,6 +243,7 @@ def test_browser_shows_the_active_coalition_and_counters(browser, scenario: str,
         assert shown == truth
         assert all(shown[a["id"]] == set(a["members"]) for a in coalitions(st))
         assert page.text("#coalitions") == str(len(coalitions(st)))
+        assert not page.page.is_visible("#counters-caption")  # one side only: nothing to tell apart
         kstar = embedded(tmp_path / f"{scenario}.html")["replay"]["kstar"]
         assert page.text("#kstar-label") == "K*" and page.text("#kstar") == str(kstar[t])
         # the page rebuilds the same state as the trace (JS decoder = Python decoder); JS numbers come
@@ -298,6 +299,14 @@ def test_browser_diff_page_highlights_the_differing_robots(browser, failing_repo
             flagged = set(page.page.eval_on_selector_all(f"#{side} .robot.diff", "els => els.map(e => e.dataset.robot)"))
             assert flagged == robots, (side, flagged)
         assert failure["path"] in page.text("#diff-panel")
+        # the header's counters say whose they are: observed, with the expected value under each
+        caption = page.text("#counters-caption")
+        assert "observed" in caption and "expected" in caption
+        data, focus = embedded(tmp_path / "d.html"), failure["tick"] + 1
+        expected, observed = decode_states(data["expected"])[focus], decode_states(data["actual"])[focus]
+        for counter, field in (("released", "released"), ("delivered", "delivered"), ("wip", "wip"), ("lost", "lost_releases")):
+            assert page.text(f"#{counter}") == str(observed[field])
+            assert page.text(f"#{counter}-exp") == f"exp {expected[field]}"
         page.page.screenshot(path=str(tmp_path / "diff.png"))
         page.page.click("#step-back")
         assert page.page.locator("#actual .robot.diff").count() == 0  # the states agree one tick earlier
