@@ -30,6 +30,7 @@ from agspec.cli.common import (
     FORMAT_OPTION,
     SEED_RANGE,
     emit_json,
+    error,
     fail,
     stderr,
     stdout,
@@ -51,7 +52,7 @@ def _fail(message: str, code: int) -> NoReturn:
 
 
 def _error(message: str) -> None:
-    stderr.print(f"[bold red]error[/]: {escape(message)}", markup=True)
+    error(message)
 
 
 def _json_text(data: Any) -> str:
