@@ -105,10 +105,11 @@ def conform(impl_spec: str | None, timeout: float, keyword: str | None, exitfirs
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
                            require=required, golden_dir=str(golden_dir) if golden_dir else None)
+    where = str(golden_dir) if golden_dir else None
     if fmt == "json":
-        emit_json(view.json_summary(summary), "conform")
+        emit_json(view.json_summary(summary, where), "conform")
     else:
-        view.print_summary(summary, impl_spec)
+        view.print_summary(summary, impl_spec, where)
     raise SystemExit(summary.exit_code)
 
 

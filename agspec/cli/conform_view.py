@@ -129,7 +129,7 @@ _STYLE = {"pass": "green", "fail": "bold red", "error": "bold magenta", "skip": 
           "xpass": "bold red"}
 
 
-def print_summary(summary, impl_spec: str) -> None:
+def print_summary(summary, impl_spec: str, golden_dir: str | None = None) -> None:
     failing = [(r, o) for r, o in summary.results if o in ("fail", "error", "xpass")]
     for result, outcome in failing[:MAX_SHOWN]:
         label = outcome.upper()
@@ -173,7 +173,8 @@ def print_summary(summary, impl_spec: str) -> None:
         stdout.print(f"[cyan]known divergence[/] {ident} (spec/10-divergences.md): {', '.join(ids)}")
     if summary.golden:
         stdout.print(f"{summary.golden} of {len(summary.results)} items matched golden reference traces reply by "
-                     "reply (F-GOLDEN; --golden-cache off runs every item live)")
+                     "reply (F-GOLDEN)")
+    stdout.print(golden_line(golden_dir), markup=False)
     for reason, n in summary.skips.items():
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
@@ -206,12 +207,22 @@ def print_summary(summary, impl_spec: str) -> None:
                                              if code == 3 and not summary.vacuous else ""))
 
 
-def json_summary(summary) -> dict[str, Any]:
-    """F-REPORT in one object; the level, skips, reproducers and verdict are in the footer."""
+def golden_line(golden_dir: str | None) -> str:
+    """Where the golden traces are kept and how to move or clear them (F-GOLDEN)."""
+    if not golden_dir:
+        return "golden cache: off (every item ran live; without --golden-cache off they are kept in ~/.cache/agspec/golden)"
+    return (f"golden cache: {golden_dir} (move it: --golden-cache DIR or $AGSPEC_GOLDEN_CACHE; clear it: delete the "
+            "directory; --golden-cache off runs every item live)")
+
+
+def json_summary(summary, golden_dir: str | None = None) -> dict[str, Any]:
+    """F-REPORT in one object; the level, skips, reproducers and verdict are in the footer; the golden
+    cache's directory (null: off, F-GOLDEN)."""
     return {"header": summary.header,
             "results": list(summary.records),
             "stale": list(summary.stale),
-            "footer": summary.footer()}
+            "footer": summary.footer(),
+            "golden_cache": golden_dir}
 
 
 # --------------------------------------------------------------------------- coverage
