@@ -103,7 +103,7 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
         task = progress.add_task("", total=len(items))
 
         def on_result(result, outcome):
-            progress.update(task, advance=1, description=f"{result.item.id} {outcome}")
+            progress.update(task, advance=1, description=f"{result.item.name} {outcome}")
             reproducer = (result.failure or {}).get("reproducer")
             # F-REPRO: every file written is announced (with --format json: in the footer's `reproducers`)
             if reproducer and result.item.kind != "replay" and fmt != "json":
@@ -135,10 +135,10 @@ def print_summary(summary, impl_spec: str, golden_dir: str | None = None) -> Non
         label = outcome.upper()
         stdout.print(f"[{_STYLE[outcome]}]{label}[/] ", end="")
         if outcome == "xpass":
-            stdout.print(f"{result.item.id} {result.item.title}: listed as an expected failure but passed; "
+            stdout.print(f"{result.item.heading}: listed as an expected failure but passed; "
                          "remove it from the expected-failures file", markup=False)
         else:
-            stdout.print(result.rendered or f"{result.item.id} {result.item.title}: {result.message}", markup=False)
+            stdout.print(result.rendered or f"{result.item.heading}: {result.message}", markup=False)
         stdout.print()
     if len(failing) > MAX_SHOWN:
         stdout.print(f"… {len(failing) - MAX_SHOWN} more failures (see the -o report)")
@@ -153,7 +153,7 @@ def print_summary(summary, impl_spec: str, golden_dir: str | None = None) -> Non
         where = ""
         if first is not None and outcome in ("fail", "error", "xfail"):
             f = first.failure or {}
-            where = f"{first.item.id} " + (f.get("path") or f.get("code") or ",".join(f.get("ids") or []) or "")
+            where = f"{first.item.name} " + (f.get("path") or f.get("code") or ",".join(f.get("ids") or []) or "")
         table.add_row(f"[{_STYLE[outcome]}]{outcome}[/]", str(summary.counts[outcome]), where)
     if summary.stale:
         table.add_row("[bold red]stale[/]", str(len(summary.stale)), summary.stale[0])
