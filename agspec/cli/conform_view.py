@@ -7,8 +7,12 @@ coverage table and ``agspec check``'s invariant table.
 
 from __future__ import annotations
 
+import hashlib
+import re
+import shlex
 import sys
 import time
+from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -76,6 +80,25 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 
 
 # --------------------------------------------------------------------------- running
+
+
+def impl_slug(impl_spec: str) -> str:
+    """The directory of one implementation's reproducers under --repro-dir (F-REPRO): its command, path
+    words cut to their last part, as a readable slug, plus 8 hex digits of SHA-256 of the whole command,
+    so two simulators never share (and overwrite) reproducers: ``python my_sim.py --bug`` ->
+    ``python-my_sim.py-bug-<digest>``."""
+    try:
+        words = shlex.split(impl_spec)
+    except ValueError:
+        words = impl_spec.split()
+    text = "-".join(w.rstrip("/").rsplit("/", 1)[-1] for w in words)
+    slug = re.sub(r"[^A-Za-z0-9_.]+", "-", text).strip("-.")[:48].rstrip("-.") or "impl"
+    return f"{slug}-{hashlib.sha256(impl_spec.encode('utf-8')).hexdigest()[:8]}"
+
+
+def repro_dir_of(repro_dir: str | None, impl_spec: str) -> str | None:
+    """Where this run saves reproducers: ``{--repro-dir}/{impl_slug}`` (F-REPRO)."""
+    return str(Path(repro_dir) / impl_slug(impl_spec)) if repro_dir else None
 
 
 def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, campaign: ExecutorSpec,
@@ -179,6 +202,9 @@ def print_summary(summary, impl_spec: str, golden_dir: str | None = None) -> Non
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
         stdout.print(f"reproducer: {path}", markup=False)
+    if summary.reproducers:  # F-REPRO: one directory per implementation
+        stdout.print(f"reproducers of this implementation are in {Path(summary.reproducers[0]).parent}/ "
+                     "(--repro-dir DIR or $AGSPEC_REPRO_DIR moves them)", markup=False)
     if summary.horizon:  # F-CONFORM: how much of each scenario's horizon the catalogue episodes checked
         stdout.print("horizon checked: " + ", ".join(f"{name} {row['ticks']}/{row['horizon']}"
                                                      for name, row in summary.horizon.items()), markup=False)
