@@ -14,7 +14,7 @@ const AgspecLayout = (function () {
   const PITCH = 104;        // px between neighbouring robots (one spacing s)
   const RING = { blocked: [2, 3], support: [5.25, 2.5], diff: [8.75, 4] }; // offset outside the cell, stroke
   const KEEP = CELL + 11;   // half height of a row of cells with its outermost ring band
-  const PAD = 1;            // px kept free around every placed label
+  const PAD = 2;            // px kept free around every placed label
   const STEP = 4;           // px a label moves along its channel per try
 
   const sizes = new Map();  // "class|text" -> the text's box relative to its (x, y) anchor
