@@ -85,8 +85,7 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 def impl_slug(impl_spec: str) -> str:
     """The directory of one implementation's reproducers under --repro-dir (F-REPRO): its command, path
     words cut to their last part, as a readable slug, plus 8 hex digits of SHA-256 of the whole command,
-    so two simulators never share (and overwrite) reproducers: ``python my_sim.py --bug`` ->
-    ``python-my_sim.py-bug-<digest>``."""
+    so two simulators never share (and overwrite) reproducers."""
     try:
         words = shlex.split(impl_spec)
     except ValueError:
