@@ -118,3 +118,24 @@ def test_table_output_is_commonmark_style(tmp_path: Path):
             "state /robots/0,0/switch_lock") in text
     assert "joint actions up to that reply" in text and "replay:" in text
     assert "NONCONFORMANT" in text
+
+
+def test_two_simulators_keep_their_reproducers_apart(tmp_path: Path):
+    """F-REPRO: {--repro-dir}/{impl}/{id}.repro.json, one directory per implementation, named in the output."""
+    from agspec.cli.conform_view import impl_slug
+
+    repro = tmp_path / "repro"
+    first, second = fake("mutate"), fake("mutate", "--at", "2")  # the same bug, another command
+    paths = []
+    for spec in (first, second):
+        result = CliRunner().invoke(cli, ["conform", "--impl", spec, "--repro-dir", str(repro), *WORKLOAD],
+                                    catch_exceptions=False)
+        assert result.exit_code == 1, result.output
+        where = repro / impl_slug(spec)
+        assert f"reproducers of this implementation are in {where}/" in result.output
+        (path,) = where.glob("*.repro.json")
+        assert path.name == "e-flow-easy-greedy.repro.json" and json.loads(path.read_text())["impl"] == spec
+        paths.append(path)
+    assert paths[0].parent != paths[1].parent and all(p.exists() for p in paths)  # neither overwrote the other
+    assert impl_slug("python my_sim.py --bug") == "python-my_sim.py-bug-f473b231"
+    assert impl_slug(f"{sys.executable} /x/y/sim.py --mutant dup").startswith(Path(sys.executable).name + "-sim.py-mutant-dup-")

@@ -185,11 +185,11 @@ def test_the_viewer_script_draws_a_diff_with_and_without_an_observed_side(tmp_pa
     monkeypatch.chdir(tmp_path)
     run_inprocess(catalogue_episodes(1, 8, ["flow-easy"]), Tamper("ignore_actions", 1), tmp_path)
     data = build_diff(tmp_path / "r.jsonl")
-    viewer = R.ROOT / "agspec" / "viewer" / "assets" / "viewer.js"
+    scripts = [str(R.ROOT / "agspec" / "viewer" / "assets" / f) for f in ("model.js", "layout.js", "viewer.js")]
     for observed in (True, False):
         doc = tmp_path / "doc.json"
         doc.write_text(json.dumps(data if observed else {**data, "actual": None}), encoding="utf-8")
-        proc = subprocess.run(["node", str(FAKES / "dom_stub.js"), str(doc), str(viewer)], capture_output=True,
+        proc = subprocess.run(["node", str(FAKES / "dom_stub.js"), str(doc), *scripts], capture_output=True,
                               text=True, timeout=60)
         assert proc.returncode == 0, proc.stderr
         out = json.loads(proc.stdout.splitlines()[-1])

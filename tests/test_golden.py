@@ -10,6 +10,7 @@ golden trace with the live run's counts.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -179,6 +180,8 @@ def test_conform_cli_reports_golden_items(tmp_path):
     assert stable(first["results"][0]) == stable(second["results"][0])
     off = subprocess.run([*cmd[:-2], "--golden-cache", "off"], capture_output=True, text=True, check=True)
     assert json.loads(off.stdout)["footer"]["golden_items"] == 0
+    # F-GOLDEN: where the cache is (null: off)
+    assert second["golden_cache"] == str(tmp_path) and json.loads(off.stdout)["golden_cache"] is None
     problems = [p for line in (second["header"], *second["results"], second["footer"])
                 for p in schemas.validate("report", line, limit=1)]
     assert problems == []
@@ -290,3 +293,22 @@ def test_only_the_remembering_invariants_keep_memory_across_records(trace):
     assert changed <= set(invariants.REMEMBERING)
     if "s00-greedy" in trace.stem:  # a long enough episode: every remembering invariant remembers
         assert changed == set(invariants.REMEMBERING)
+
+
+def test_conform_table_says_where_the_golden_cache_is_and_how_to_move_or_clear_it(tmp_path):
+    """F-GOLDEN: one line of the table output names the directory (the default one too), how to move it
+    and how to clear it; with the cache off it says so."""
+    base = [sys.executable, "-m", "agspec.cli.main", "conform", "--impl", "reference", "--no-suite", "--episodes", "1",
+            "--horizon", "5", "-k", "e-flow-easy-*"]
+    env = {k: v for k, v in os.environ.items() if k not in ("AGSPEC_GOLDEN_CACHE", "XDG_CACHE_HOME")}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "xdg")
+    default = subprocess.run(base, capture_output=True, text=True, check=True, env=env).stdout
+    where = tmp_path / "xdg" / "agspec" / "golden"
+    line = next(ln for ln in default.splitlines() if ln.startswith("golden cache: "))
+    assert str(where) in line and "--golden-cache DIR" in line and "delete the directory" in line
+    assert where.is_dir()
+    named = subprocess.run([*base, "--golden-cache", str(tmp_path / "g")], capture_output=True, text=True, check=True,
+                           env=env).stdout
+    assert f"golden cache: {tmp_path / 'g'} (" in named
+    off = subprocess.run([*base, "--golden-cache", "off"], capture_output=True, text=True, check=True, env=env).stdout
+    assert "golden cache: off" in off

@@ -13,58 +13,23 @@ or page errors; scrubbing to the end and back shows the footer's and the initial
 
 from __future__ import annotations
 
-import io
 import json
 import shlex
-import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from agspec.cli.main import cli
 from agspec.viewer.encode import apply_diff, decode_states, delta_decode, diff, encode, trace_data
+from replay_pages import (Page, browser, embedded, failing_report, record_reference, render,  # noqa: F401 (fixtures)
+                          write_trace)
 
 ROOT = Path(__file__).resolve().parents[1]
 SIM = ROOT / "tests" / "mutants" / "sim.py"
 OFFICIAL = [f"{f}-{lvl}" for f in ("flow", "coalition", "concurrency") for lvl in ("easy", "medium", "hard")]
-DATA_START = '<script type="application/json" id="replay-data">'
 
 
 # ----------------------------------------------------------------------------------------- helpers
-def record_reference(scenario: str, ticks: int, observations: bool = False, controller: str = "greedy") -> list[dict]:
-    """The records of `agspec run SCENARIO --horizon TICKS --trace` (in process)."""
-    from agspec.catalogue import load_scenario_bundle
-    from agspec.evaluate import run_episode
-    from agspec.ir.instance import make_instance
-    from agspec.formats.trace import TraceWriter
-
-    sc, recipes, profile = load_scenario_bundle(scenario)
-    buf = io.StringIO()
-    run_episode(make_instance(sc, recipes, profile, index=0), controller, horizon=ticks, trace=TraceWriter(buf),
-                observations_in_trace=observations)
-    return [json.loads(line) for line in buf.getvalue().splitlines()]
-
-
-def write_trace(records: list[dict], path: Path) -> Path:
-    path.write_text("".join(json.dumps(r, sort_keys=True) + "\n" for r in records), encoding="utf-8")
-    return path
-
-
-def render(*args: str) -> tuple[int, str]:
-    result = CliRunner().invoke(cli, ["render", *args])
-    assert not isinstance(result.exception, Exception) or isinstance(result.exception, SystemExit), result.exception
-    return result.exit_code, result.output
-
-
-def embedded(page: Path) -> dict:
-    text = page.read_text(encoding="utf-8")
-    start = text.index(DATA_START) + len(DATA_START)
-    return json.loads(text[start:text.index("</script>", start)])
-
-
 def canon(value) -> str:
     return json.dumps(value, sort_keys=True)
 
@@ -200,18 +165,6 @@ def test_a_crashing_simulator_exits_3_and_still_shows_its_ticks(tmp_path: Path):
 
 
 # ----------------------------------------------------------------------------------------- --diff
-@pytest.fixture(scope="module")
-def failing_report(tmp_path_factory) -> Path:
-    """A real report of `agspec conform` against the dup-handoff mutant (R-HANDOFF, INV-CONSERVATION)."""
-    where = tmp_path_factory.mktemp("report")
-    spec = shlex.join([sys.executable, str(SIM), "--mutant", "dup-handoff"])
-    proc = subprocess.run([sys.executable, "-m", "agspec.cli.main", "conform", "--impl", spec, "--no-suite", "-k",
-                           "e-coalition-medium-greedy", "-o", "r.jsonl", "--repro-dir", "repro"],
-                          cwd=where, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 1, proc.stdout + proc.stderr
-    return where / "r.jsonl"
-
-
 def _failure(report: Path) -> dict:
     records = [json.loads(line) for line in report.read_text(encoding="utf-8").splitlines() if line.strip()]
     return next(r["failure"] for r in records if r.get("type") == "case")
@@ -253,49 +206,6 @@ def test_docs_example_is_small_and_current():
 
 
 # ----------------------------------------------------------------------------------------- browser
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-
-
-@pytest.fixture(scope="module")
-def browser():
-    exe = shutil.which("chromium") or (Path("/usr/bin/chromium").is_file() and "/usr/bin/chromium")
-    if not exe:
-        pytest.skip("headless browser test needs Debian's chromium (apt-get install chromium); not found")
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        pytest.skip("headless browser test needs Playwright (pip install '.[test]'); not installed")
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=str(exe), args=CHROMIUM_ARGS)
-        yield b
-        b.close()
-
-
-class Page:
-    """One loaded page with its console and page errors collected."""
-
-    def __init__(self, browser, path: Path):
-        self.errors: list[str] = []
-        self.page = browser.new_page(viewport={"width": 1500, "height": 1000})
-        self.page.on("console", lambda m: self.errors.append(m.text) if m.type == "error" else None)
-        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
-        self.page.on("request", lambda r: None if r.url.startswith(("file:", "data:"))
-                     else self.errors.append(f"network request {r.url}"))
-        self.page.goto(path.resolve().as_uri())
-        self.page.wait_for_function("window.agspecViewer !== undefined")
-
-    def scrub(self, t: int) -> None:
-        self.page.locator("#scrub").evaluate(
-            "(el, v) => { el.value = String(v); el.dispatchEvent(new Event('input', {bubbles: true})); }", t)
-
-    def text(self, sel: str) -> str:
-        return self.page.inner_text(sel).strip()
-
-    def close(self) -> None:
-        self.page.close()
-
-
 def _target_tick(states: list[dict]) -> int | None:
     return next((t for t, s in enumerate(states) if coalitions(s)), None)
 
@@ -333,6 +243,7 @@ def test_browser_shows_the_active_coalition_and_counters(browser, scenario: str,
         assert shown == truth
         assert all(shown[a["id"]] == set(a["members"]) for a in coalitions(st))
         assert page.text("#coalitions") == str(len(coalitions(st)))
+        assert not page.page.is_visible("#counters-caption")  # one side only: nothing to tell apart
         kstar = embedded(tmp_path / f"{scenario}.html")["replay"]["kstar"]
         assert page.text("#kstar-label") == "K*" and page.text("#kstar") == str(kstar[t])
         # the page rebuilds the same state as the trace (JS decoder = Python decoder); JS numbers come
@@ -388,6 +299,14 @@ def test_browser_diff_page_highlights_the_differing_robots(browser, failing_repo
             flagged = set(page.page.eval_on_selector_all(f"#{side} .robot.diff", "els => els.map(e => e.dataset.robot)"))
             assert flagged == robots, (side, flagged)
         assert failure["path"] in page.text("#diff-panel")
+        # the header's counters say whose they are: observed, with the expected value under each
+        caption = page.text("#counters-caption")
+        assert "observed" in caption and "expected" in caption
+        data, focus = embedded(tmp_path / "d.html"), failure["tick"] + 1
+        expected, observed = decode_states(data["expected"])[focus], decode_states(data["actual"])[focus]
+        for counter, field in (("released", "released"), ("delivered", "delivered"), ("wip", "wip"), ("lost", "lost_releases")):
+            assert page.text(f"#{counter}") == str(observed[field])
+            assert page.text(f"#{counter}-exp") == f"exp {expected[field]}"
         page.page.screenshot(path=str(tmp_path / "diff.png"))
         page.page.click("#step-back")
         assert page.page.locator("#actual .robot.diff").count() == 0  # the states agree one tick earlier

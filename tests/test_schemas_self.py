@@ -110,7 +110,7 @@ def test_the_documents_of_a_failing_conform_run_validate(tmp_path):
     assert out.exit_code == 1, out.output[-2000:]
     assert schemas.validate("conform", json.loads(out.output)) == []
     assert read_report(tmp_path / "r.jsonl")[1] == []
-    repro = next(tmp_path.glob("*.repro.json"))
+    repro = next(tmp_path.glob("*/*.repro.json"))  # F-REPRO: {--repro-dir}/{impl}/{id}.repro.json
     assert schemas.validate("repro", json.loads(repro.read_text("utf-8"))) == []
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 from typing import Any, NoReturn
 
@@ -60,9 +61,24 @@ def print_table(table: Any, console: Console | None = None) -> None:
     Console(file=console.file, width=max(width, console.width), highlight=False).print(table)
 
 
+# the head of a rendered diagnostic (agspec.diagnostics.Diagnostic.header): `FILE:LINE:COL: error[AG416]: `
+DIAGNOSTIC_HEAD = re.compile(r"^[^\n]*?\b(?:error|warning)\[[A-Z]+\d+\]: ")
+
+
+def error(message: str) -> None:
+    """Print ``error: MESSAGE`` to stderr (the message literally: file names and ids may contain brackets).
+
+    A message that is a rendered diagnostic already names its severity (``FILE:L:C: error[AGnnn]: ...``,
+    F-DIAGNOSTICS): it is printed as it is, never as ``error: FILE:L:C: error[AGnnn]``."""
+    if DIAGNOSTIC_HEAD.match(message):
+        stderr.print(Text(message), highlight=False)
+    else:
+        stderr.print(Text.assemble(("error", "bold red"), ": ", message))
+
+
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
-    """Print ``error: MESSAGE`` (the message literally: file names and ids may contain brackets) and exit."""
-    stderr.print(Text.assemble(("error", "bold red"), ": ", message))
+    """:func:`error`, then exit with ``code`` (F-EXIT-CODES)."""
+    error(message)
     raise SystemExit(code)
 
 

@@ -60,7 +60,8 @@ from agspec.cli.grammar import (
 @click.option("--suite", "suite_dir", type=click.Path(file_okay=False), default=None, help="Suite root (default: the shipped conformance/).")
 @click.option("--repro-dir", type=click.Path(file_okay=False), default=".agspec/repro", show_default=True,
               envvar="AGSPEC_REPRO_DIR", show_envvar=True,
-              help="Where reproducers of failures are saved (every path written is printed and in the report).")
+              help="Where reproducers of failures are saved, one subdirectory per implementation "
+                   "(every path written is printed and in the report).")
 @click.option("--require", "require", default=None, metavar="LEVEL",
               help="Fail (exit 1) unless the run proves LEVEL: `full` or parts from events,state,observations,masks.")
 @click.option("--float-tolerance", type=float, default=None, help="Compare floats with this absolute tolerance (default: exactly).")
@@ -110,18 +111,21 @@ def conform(impl_spec: str | None, timeout: float, keyword: str | None, exitfirs
                       "executor": campaign.kind,
                       "episodes": episodes, "ticks": ticks, "validate_protocol": validate_protocol,
                       "suite": not no_suite and not replay_path, "replay": replay_path, "expect": expect_path,
-                      "float_tolerance": float_tolerance, "require": require, "repro_dir": repro_dir}
+                      "float_tolerance": float_tolerance, "require": require,
+                      "repro_dir": view.repro_dir_of(repro_dir, impl_spec)}
     from agspec.conform.golden import cache_dir
 
     golden_dir = cache_dir(golden_cache)
     summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
-                           repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,
+                           repro_dir=view.repro_dir_of(repro_dir, impl_spec), tolerance=float_tolerance,
+                           options_record=options_record, fmt=fmt,
                            require=required, golden_dir=str(golden_dir) if golden_dir else None)
+    where = str(golden_dir) if golden_dir else None
     if fmt == "json":
-        emit_json(view.json_summary(summary), "conform")
+        emit_json(view.json_summary(summary, where), "conform")
     else:
-        view.print_summary(summary, impl_spec)
+        view.print_summary(summary, impl_spec, where)
     raise SystemExit(summary.exit_code)
 
 

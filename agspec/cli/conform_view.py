@@ -7,8 +7,12 @@ coverage table and ``agspec check``'s invariant table.
 
 from __future__ import annotations
 
+import hashlib
+import re
+import shlex
 import sys
 import time
+from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from rich.progress import (
@@ -92,6 +96,24 @@ def load_expect(path: str | None, universe: set[str], suite_loaded: bool):
 # --------------------------------------------------------------------------- running
 
 
+def impl_slug(impl_spec: str) -> str:
+    """The directory of one implementation's reproducers under --repro-dir (F-REPRO): its command, path
+    words cut to their last part, as a readable slug, plus 8 hex digits of SHA-256 of the whole command,
+    so two simulators never share (and overwrite) reproducers."""
+    try:
+        words = shlex.split(impl_spec)
+    except ValueError:
+        words = impl_spec.split()
+    text = "-".join(w.rstrip("/").rsplit("/", 1)[-1] for w in words)
+    slug = re.sub(r"[^A-Za-z0-9_.]+", "-", text).strip("-.")[:48].rstrip("-.") or "impl"
+    return f"{slug}-{hashlib.sha256(impl_spec.encode('utf-8')).hexdigest()[:8]}"
+
+
+def repro_dir_of(repro_dir: str | None, impl_spec: str) -> str | None:
+    """Where this run saves reproducers: ``{--repro-dir}/{impl_slug}`` (F-REPRO)."""
+    return str(Path(repro_dir) / impl_slug(impl_spec)) if repro_dir else None
+
+
 def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, validate: bool, campaign: ExecutorSpec,
             expectations: Mapping[str, Any], stale: Sequence[str], max_fail: int | None, report_path: str | None,
             repro_dir: str | None, tolerance: float | None, options_record: Mapping[str, Any], fmt: str,
@@ -117,7 +139,7 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
         task = progress.add_task("", total=len(items))
 
         def on_result(result, outcome):
-            progress.update(task, advance=1, description=f"{result.item.id} {outcome}")
+            progress.update(task, advance=1, description=f"{result.item.name} {outcome}")
             reproducer = (result.failure or {}).get("reproducer")
             # F-REPRO: every file written is announced (with --format json: in the footer's `reproducers`)
             if reproducer and result.item.kind != "replay" and fmt != "json":
@@ -143,16 +165,16 @@ _STYLE = {"pass": "green", "fail": "bold red", "error": "bold magenta", "skip": 
           "xpass": "bold red"}
 
 
-def print_summary(summary, impl_spec: str) -> None:
+def print_summary(summary, impl_spec: str, golden_dir: str | None = None) -> None:
     failing = [(r, o) for r, o in summary.results if o in ("fail", "error", "xpass")]
     for result, outcome in failing[:MAX_SHOWN]:
         label = outcome.upper()
         stdout.print(f"[{_STYLE[outcome]}]{label}[/] ", end="")
         if outcome == "xpass":
-            stdout.print(f"{result.item.id} {result.item.title}: listed as an expected failure but passed; "
+            stdout.print(f"{result.item.heading}: listed as an expected failure but passed; "
                          "remove it from the expected-failures file", markup=False)
         else:
-            stdout.print(result.rendered or f"{result.item.id} {result.item.title}: {result.message}", markup=False)
+            stdout.print(result.rendered or f"{result.item.heading}: {result.message}", markup=False)
         stdout.print()
     if len(failing) > MAX_SHOWN:
         stdout.print(f"… {len(failing) - MAX_SHOWN} more failures (see the -o report)")
@@ -167,7 +189,7 @@ def print_summary(summary, impl_spec: str) -> None:
         where = ""
         if first is not None and outcome in ("fail", "error", "xfail"):
             f = first.failure or {}
-            where = f"{first.item.id} " + (f.get("path") or f.get("code") or ",".join(f.get("ids") or []) or "")
+            where = f"{first.item.name} " + (f.get("path") or f.get("code") or ",".join(f.get("ids") or []) or "")
         table.add_row(f"[{_STYLE[outcome]}]{outcome}[/]", str(summary.counts[outcome]), where)
     if summary.stale:
         table.add_row("[bold red]stale[/]", str(len(summary.stale)), summary.stale[0])
@@ -187,11 +209,15 @@ def print_summary(summary, impl_spec: str) -> None:
         stdout.print(f"[cyan]known divergence[/] {ident} (spec/10-divergences.md): {', '.join(ids)}")
     if summary.golden:
         stdout.print(f"{summary.golden} of {len(summary.results)} items matched golden reference traces reply by "
-                     "reply (F-GOLDEN; --golden-cache off runs every item live)")
+                     "reply (F-GOLDEN)")
+    stdout.print(golden_line(golden_dir), markup=False)
     for reason, n in summary.skips.items():
         stdout.print(f"[yellow]skipped[/] {n}: {reason}")
     for path in summary.reproducers:
         stdout.print(f"reproducer: {path}", markup=False)
+    if summary.reproducers:  # F-REPRO: one directory per implementation
+        stdout.print(f"reproducers of this implementation are in {Path(summary.reproducers[0]).parent}/ "
+                     "(--repro-dir DIR or $AGSPEC_REPRO_DIR moves them)", markup=False)
     if summary.horizon:  # F-CONFORM: how much of each scenario's horizon the catalogue episodes checked
         stdout.print("horizon checked: " + ", ".join(f"{name} {row['ticks']}/{row['horizon']}"
                                                      for name, row in summary.horizon.items()), markup=False)
@@ -220,12 +246,22 @@ def print_summary(summary, impl_spec: str) -> None:
                                              if code == 3 and not summary.vacuous else ""))
 
 
-def json_summary(summary) -> dict[str, Any]:
-    """F-REPORT in one object; the level, skips, reproducers and verdict are in the footer."""
+def golden_line(golden_dir: str | None) -> str:
+    """Where the golden traces are kept and how to move or clear them (F-GOLDEN)."""
+    if not golden_dir:
+        return "golden cache: off (every item ran live; without --golden-cache off they are kept in ~/.cache/agspec/golden)"
+    return (f"golden cache: {golden_dir} (move it: --golden-cache DIR or $AGSPEC_GOLDEN_CACHE; clear it: delete the "
+            "directory; --golden-cache off runs every item live)")
+
+
+def json_summary(summary, golden_dir: str | None = None) -> dict[str, Any]:
+    """F-REPORT in one object; the level, skips, reproducers and verdict are in the footer; the golden
+    cache's directory (null: off, F-GOLDEN)."""
     return {"header": summary.header,
             "results": list(summary.records),
             "stale": list(summary.stale),
-            "footer": summary.footer()}
+            "footer": summary.footer(),
+            "golden_cache": golden_dir}
 
 
 # --------------------------------------------------------------------------- coverage

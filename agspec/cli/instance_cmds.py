@@ -31,6 +31,7 @@ from agspec.cli.common import (
     FORMAT_OPTION,
     SEED_RANGE,
     emit_json,
+    error,
     fail,
     stderr,
     stdout,
@@ -52,7 +53,7 @@ def _fail(message: str, code: int) -> NoReturn:
 
 
 def _error(message: str) -> None:
-    stderr.print(f"[bold red]error[/]: {escape(message)}", markup=True)
+    error(message)
 
 
 def _json_text(data: Any) -> str:

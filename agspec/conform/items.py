@@ -52,6 +52,18 @@ class Item:
     horizon: int | None = None  # a catalogue episode: the epochs its execution lasts (F-CONFORM horizon)
 
     @property
+    def name(self) -> str:
+        """What a person reads: a suite case by its title and place in the suite (``support expiry: …
+        (conformance/cases/support.yaml:7)``), an episode or a replay by its id; ``id`` stays the
+        stable key (``--expect`` files, reports, reproducers)."""
+        return f"{self.title} ({self.location})" if self.kind == "case" and self.location else self.id
+
+    @property
+    def heading(self) -> str:
+        """The first line of a failure's text: the name, then the stable id."""
+        return f"{self.title} [{self.id}]" if self.kind == "case" else f"{self.id} {self.title}"
+
+    @property
     def scenario(self) -> str | None:
         """The official scenario of a catalogue episode (None for a case or a replay)."""
         loc = self.location or ""

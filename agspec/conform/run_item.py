@@ -215,7 +215,7 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
         res.message = f"harness error: {type(exc).__name__}: {exc}"
         res.failure = {"type": "harness", "code": type(exc).__name__, "message": res.message, "tick": tick,
                        "stderr": traceback.format_exc()}
-        res.rendered = f"{item.id} {item.title}\n  harness error at tick {tick}: {type(exc).__name__}: {exc}\n" \
+        res.rendered = f"{item.heading}\n  harness error at tick {tick}: {type(exc).__name__}: {exc}\n" \
                        "  (a bug of agspec or of the suite — please file an issue)"
         return res
     finally:
@@ -433,9 +433,10 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
 def _render_fail(item: Item, div, violations, failed_expectations, history, reproducer, impl_spec, t,
                  named=None) -> str:
     if div is not None:
-        text = compare.render_divergence(item.title, item.id, div, list(history), reproducer, impl_spec)
+        text = compare.render_divergence(item.title, item.id, div, list(history), reproducer, impl_spec,
+                                        heading=item.heading)
     else:
-        lines = [f"{item.id} {item.title}", f"  first failure {compare.reply_name(t)}"]
+        lines = [item.heading, f"  first failure {compare.reply_name(t)}"]
         lines += compare.render_context(list(history), t)
         if reproducer:
             lines.append(f"  reproducer: {reproducer}")
@@ -454,7 +455,7 @@ def _render_fail(item: Item, div, violations, failed_expectations, history, repr
 def _render_error(item: Item, exc: ProtocolError, tick: int) -> str:
     at = "during start/load/reset" if tick < 0 else f"at tick {tick}"
     what = exc.kind if exc.kind == exc.code else f"{exc.kind} ({exc.code})"
-    text = f"{item.id} {item.title}\n  {what} {at}: {exc.message}"
+    text = f"{item.heading}\n  {what} {at}: {exc.message}"
     if exc.stderr:
         tail = exc.stderr.strip().splitlines()[-8:]
         text += "\n  stderr of the simulator (last lines):\n" + "\n".join(f"    | {line}" for line in tail)

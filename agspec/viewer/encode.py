@@ -11,7 +11,7 @@ A diff is a list of operations on a JSON value, applied in order:
   equal to the array's length appends;
 * ``[path]`` — delete: remove the object key, or truncate the array to the last index of ``path``.
 
-``apply_diff`` (Python) and ``applyDiff`` (assets/viewer.js) are the same function; the round trip
+``apply_diff`` (Python) and ``applyDiff`` (assets/model.js) are the same function; the round trip
 ``decode(encode(records)) == states`` is tested at every tick (tests/test_render.py).
 """
 
@@ -84,7 +84,7 @@ def diff(old: Any, new: Any, path: Path | None = None, out: list | None = None) 
 
 
 def apply_diff(value: Any, ops: Iterable[Sequence[Any]]) -> Any:
-    """Apply ``ops`` to ``value`` in place and return it (mirror of viewer.js ``applyDiff``)."""
+    """Apply ``ops`` to ``value`` in place and return it (mirror of model.js ``applyDiff``)."""
     for op in ops:
         path = op[0]
         parent = value

@@ -29,7 +29,9 @@ def build_page(data: Mapping[str, Any], *, title: str, mode: str) -> str:
     out = _asset("template.html")
     # substitute the data last: the JSON may contain any of the other markers as text
     for marker, value in (("__TITLE__", html.escape(title)), ("__MODE__", mode), ("__VERSION__", __version__),
-                          ("__CSS__", _asset("viewer.css")), ("__JS__", _asset("viewer.js"))):
+                          ("__CSS__", _asset("viewer.css")),
+                          ("__MODEL_JS__", _asset("model.js")),
+                          ("__LAYOUT_JS__", _asset("layout.js")), ("__JS__", _asset("viewer.js"))):
         out = out.replace(marker, value)
     return out.replace("__DATA__", embed_json(data), 1)
 

@@ -1,7 +1,7 @@
-// Runs agspec/viewer/assets/viewer.js on a replay document under a stub DOM in which every element
+// Runs the viewer's scripts (agspec/viewer/assets/model.js, layout.js, viewer.js, in the page's order) on a replay document under a stub DOM in which every element
 // accepts any property and method: enough to catch a script error of init() and go() without a
 // browser (the headless-browser tests of tests/test_render.py check what is drawn).
-//   node tests/fakes/dom_stub.js DOCUMENT.json VIEWER.js   -> prints one JSON line {T, subtitle, panel}
+//   node tests/fakes/dom_stub.js DOCUMENT.json SCRIPT.js...   -> prints one JSON line {T, subtitle, panel}
 const fs = require("fs");
 function fake() {
   const store = { style: {}, dataset: {}, classList: { add() {}, remove() {}, toggle() {} } };
@@ -29,7 +29,8 @@ global.location = { hash: "" };
 global.history = { replaceState() {} };
 global.setInterval = () => 1;
 global.clearInterval = () => {};
-eval(fs.readFileSync(process.argv[3], "utf8"));
+// one eval of the scripts joined, as the page's classic scripts share one global scope
+eval(process.argv.slice(3).map((f) => fs.readFileSync(f, "utf8")).join("\n;\n"));
 const v = window.agspecViewer;
 for (let t = 0; t <= v.T(); t++) v.go(t);
 const text = (id) => (els[id] && typeof els[id].textContent === "string") ? els[id].textContent : "";

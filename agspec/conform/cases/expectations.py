@@ -154,7 +154,7 @@ def mismatches(
     what this evaluates and skips.
     """
     out: list[Mismatch] = []
-    file = _show_path(case.source)
+    file = _show_path(case.source, case.root)
     available = available_parts(state, events, observations, masks, done)
     if observations is None and masks is not None:  # mask entries read from the masks (O-MASK)
         observations = {r: {"mask": m} for r, m in masks.items()}

@@ -86,7 +86,9 @@ class Case:
 
     @property
     def location(self) -> str:
-        return f"{_show_path(self.source)}:{self.line}"
+        """``FILE:LINE`` of the case, relative to its suite as the suite's files name it
+        (``conformance/cases/support.yaml:12``), wherever the suite is installed."""
+        return f"{_show_path(self.source, self.root)}:{self.line}"
 
     @property
     def needs_observations(self) -> bool:
@@ -99,8 +101,12 @@ class Case:
         return self.lines.get(key, self.line)
 
 
-def _show_path(path: Path) -> str:
-    try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(path)
+def _show_path(path: Path, root: Path | None = None) -> str:
+    """``path`` as its suite names it: relative to the suite root's parent (``conformance/cases/x.yaml``),
+    else relative to the working directory, else as it is."""
+    for base in ([root.resolve().parent] if root is not None else []) + [Path.cwd().resolve()]:
+        try:
+            return path.resolve().relative_to(base).as_posix()
+        except ValueError:
+            continue
+    return str(path)

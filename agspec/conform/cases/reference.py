@@ -147,7 +147,7 @@ def lint_suite(cases: Sequence[Case], *, run: bool = True) -> list[str]:
 
 def _lint_run(case: Case) -> list[str]:
     out: list[str] = []
-    file = _show_path(case.source)
+    file = _show_path(case.source, case.root)
     deliberate = "R-ACTION-VALIDATION" in case.rules
     obs_ticks = {e["after_tick"] for e in case.expectations if "observations" in e}
     try:

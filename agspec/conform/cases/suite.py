@@ -156,7 +156,7 @@ def load_case_file(path: Path | str, root: Path | str | None = None) -> list[Cas
     """The cases of one file (one case object or a list of them)."""
     path = Path(path)
     root = Path(root) if root is not None else conformance_dir()
-    file = _show_path(path)
+    file = _show_path(path, root)
     try:  # F-LIMITS: bounded reading of a suite file
         text = limits.read_text(path)
     except limits.InputError as exc:

@@ -261,9 +261,10 @@ def render_context(context: Sequence[Mapping[str, Any]], tick: int, indent: str 
 
 
 def render_divergence(title: str, ident: str, div: Divergence, context: Sequence[Mapping[str, Any]],
-                      reproducer: str | None = None, impl: str | None = None) -> str:
-    """The CommonMark-style report of a divergence (plain text)."""
-    lines = [f"{ident} {title}",
+                      reproducer: str | None = None, impl: str | None = None, heading: str | None = None) -> str:
+    """The CommonMark-style report of a divergence (plain text); ``heading``: its first line (default
+    ``IDENT TITLE``)."""
+    lines = [heading or f"{ident} {title}",
              f"  first divergence {div.headline()}",
              f"    pointer   {div.path}",
              f"    expected  {show(div.expected)}",

@@ -6,86 +6,7 @@
 (function () {
   "use strict";
   const DATA = JSON.parse(document.getElementById("replay-data").textContent);
-  const SVGNS = "http://www.w3.org/2000/svg";
-  const PALETTE = ["#e4572e", "#17bebb", "#7b2cbf", "#2e86ab", "#f18f01", "#3bb273", "#c1292e",
-                   "#5c4d7d", "#d4a017", "#0f7173", "#ef476f", "#6a994e"];
-  const DIRS = ["N", "NE", "E", "SE", "S", "SW", "W", "NW"];
-
-  const clone = (v) => (v === null || typeof v !== "object") ? v : JSON.parse(JSON.stringify(v));
-  function esc(s) {
-    return String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" }[c]));
-  }
-  function el(name, attrs, parent) {
-    const node = document.createElementNS(SVGNS, name);
-    for (const k in attrs || {}) node.setAttribute(k, attrs[k]);
-    if (parent) parent.appendChild(node);
-    return node;
-  }
-  function hash(s) { let h = 2166136261; for (let i = 0; i < s.length; i++) { h ^= s.charCodeAt(i); h = Math.imul(h, 16777619); } return h >>> 0; }
-  const colourOf = (id) => PALETTE[hash(String(id)) % PALETTE.length];
-  const rc = (robot) => robot.split(",").map(Number);
-  const candidateMembers = (cand) => { const p = String(cand).split(":"); return p[p.length - 1].split(";"); };
-  const fmt = (x, d) => (x === null || x === undefined || Number.isNaN(x)) ? "–" : Number(x).toFixed(d);
-
-  // ------------------------------------------------------------------ decoding (keyframes + diffs)
-  function applyDiff(value, ops) {
-    for (const op of ops) {
-      const path = op[0];
-      let parent = value;
-      for (let i = 0; i < path.length - 1; i++) parent = parent[path[i]];
-      const last = path[path.length - 1];
-      if (op.length === 1) {
-        if (Array.isArray(parent)) parent.length = last; else delete parent[last];
-      } else {
-        parent[last] = clone(op[1]); // appends when last === parent.length
-      }
-    }
-    return value;
-  }
-  class Decoder {
-    constructor(enc) { this.enc = enc; this.last = null; }
-    at(i) {
-      const enc = this.enc;
-      if (!enc) return null;
-      const K = enc.K, base = Math.floor(i / K) * K;
-      let from = base, value;
-      if (this.last && this.last.i <= i && this.last.i >= base) { from = this.last.i; value = clone(this.last.value); }
-      else value = clone(enc.keys[Math.floor(i / K)]);
-      for (let j = from + 1; j <= i; j++) applyDiff(value, enc.diffs[j]);
-      this.last = { i: i, value: value };
-      return clone(value);
-    }
-  }
-
-  // ------------------------------------------------------------------ derived quantities
-  function phaseOf(act, t) {
-    // G-DURATION: D = A + P + R ticks from `start`; at state s_t, p = t - start ticks have elapsed.
-    const A = act.approach || 0, P = act.process || 0, R = act.retreat || 0;
-    const D = Math.max(1, (act.end != null && act.start != null) ? act.end - act.start : A + P + R);
-    const p = Math.max(0, Math.min(D, t - act.start));
-    let phase = "approach";
-    if (p > A + P) phase = "retreat"; else if (p > A) phase = "process";
-    if (A === 0 && p === 0) phase = P > 0 ? "process" : "retreat";
-    // the tick inside the current phase and the phase's length: "process 2/4", not tick 8 of the whole D
-    const k = phase === "approach" ? p : phase === "process" ? p - A : p - A - P;
-    const n = phase === "approach" ? A : phase === "process" ? P : R;
-    return { phase: phase, p: p, D: D, A: A, P: P, R: R, k: k, n: n };
-  }
-  function phaseText(ph) { return ph.phase + " " + ph.k + "/" + ph.n; }
-  function phaseTitle(ph) {
-    return "tick " + ph.p + " of " + ph.D + ": approach " + ph.A + " + process " + ph.P + " + retreat " + ph.R + " ticks (G-DURATION)";
-  }
-  function involvedRobots(ev) {
-    const out = [];
-    for (const k of ["robot", "sender", "receiver"]) if (typeof ev[k] === "string") out.push(ev[k]);
-    if (typeof ev.candidate === "string" && ev.candidate.startsWith("op:")) out.push(...candidateMembers(ev.candidate));
-    return out;
-  }
-  function describeEvent(ev) {
-    const skip = new Set(["type"]);
-    const parts = Object.keys(ev).filter((k) => !skip.has(k)).map((k) => k + "=" + (typeof ev[k] === "object" ? JSON.stringify(ev[k]) : ev[k]));
-    return '<span class="mono ev-' + esc(ev.type) + '">' + esc(ev.type) + "(" + esc(parts.join(", ")) + ")</span>";
-  }
+  const { DIRS, esc, el, colourOf, rc, candidateMembers, fmt, Decoder, phaseOf, phaseText, phaseTitle, involvedRobots, describeEvent } = AgspecModel;
 
   // ------------------------------------------------------------------ one grid pane
   class Pane {
@@ -96,16 +17,17 @@
       const L = doc.layout;
       this.rows = L.grid.rows; this.cols = L.grid.cols;
       this.s = Number(L.profile.spacing) || 1; this.reach = Number(L.profile.reach) || 1.5;
-      this.S = 72 / this.s; // pixels per task-space unit: one cell is 72 px whatever the spacing
+      this.S = AgspecLayout.PITCH / this.s; // pixels per task-space unit: one spacing is PITCH px whatever s
       this.x0 = 1.35 * this.s; this.y0 = 0.75 * this.s;
       const wrap = document.createElement("div");
       wrap.className = "pane"; if (id) wrap.id = id;
       if (label) { const h = document.createElement("h3"); h.textContent = label; wrap.appendChild(h); }
       container.appendChild(wrap);
       const W = this.cols * this.s + this.x0 + 0.55 * this.s, H = (this.rows - 1) * this.s + 2 * this.y0;
-      this.svg = el("svg", { viewBox: "0 0 " + (W * this.S).toFixed(1) + " " + (H * this.S).toFixed(1), role: "img" }, wrap);
+      this.W = W * this.S; this.H = H * this.S;
+      this.svg = el("svg", { viewBox: "0 0 " + this.W.toFixed(1) + " " + this.H.toFixed(1), role: "img" }, wrap);
       this.layers = {};
-      for (const name of ["static", "reach", "props", "acts", "robots", "items", "labels"]) this.layers[name] = el("g", { class: "layer-" + name }, this.svg);
+      for (const name of ["static", "reach", "props", "acts", "robots", "leaders", "items", "labels"]) this.layers[name] = el("g", { class: "layer-" + name }, this.svg);
       this.robotEls = {};
       this.itemEls = {};
       this.buildStatic();
@@ -123,7 +45,7 @@
         el("circle", { cx: this.X(-0.5 * s), cy: this.Y(r * s), r: 2.5, fill: "#c9a227" }, sg);
         const tx = el("text", { x: this.X(-1.2 * s), y: this.Y(r * s - 0.14 * s) }, sg);
         tx.textContent = "shelf " + r;
-        this.shelfEls.push(el("text", { x: this.X(-1.2 * s), y: this.Y(r * s + 0.12 * s), "font-weight": 600 }, sg));
+        this.shelfEls.push(el("text", { class: "stock", x: this.X(-1.2 * s), y: this.Y(r * s + 0.12 * s), "font-weight": 600 }, sg));
       }
       // output points (G-OUTPUT-POINT: (N s, i s))
       for (let r = 0; r < this.rows; r++) {
@@ -138,24 +60,31 @@
       this.layers.reach.style.display = "none";
       // the selected robot's reach disk is always shown
       this.selReach = el("circle", { class: "reach-selected", r: (this.reach * S).toFixed(1), cx: -1000, cy: -1000 }, this.layers.props.parentNode.insertBefore(el("g", {}), this.layers.props));
-      // robots
-      const half = 0.36 * s;
+      // robots: the cell and, inside it, fixed slots for the id (top left), the incoming-handoff mark
+      // (top right), the role (centre) and the phase (bottom); the rings lie outside the cell, each in
+      // its own band (layout.js), so no text of the cell ever meets a ring
+      const C = AgspecLayout.CELL, RING = AgspecLayout.RING;
+      const ring = (cls, cx, cy, [off, w], rx, g) => el("rect", { class: cls, x: cx - C - off, y: cy - C - off, width: 2 * (C + off), height: 2 * (C + off), rx: rx, "stroke-width": w }, g);
       for (let i = 0; i < this.rows; i++) for (let j = 0; j < this.cols; j++) {
-        const id = i + "," + j;
+        const id = i + "," + j, cx = +this.X(j * s), cy = +this.Y(i * s);
         const rg = el("g", { class: "robot", "data-robot": id, "data-coalition": "", "data-role": "", tabindex: 0 }, this.layers.robots);
-        const cell = el("rect", { class: "cell", x: this.X(j * s - half), y: this.Y(i * s - half), width: (2 * half * S).toFixed(1), height: (2 * half * S).toFixed(1), rx: 7 }, rg);
-        el("rect", { class: "blocked-ring", x: this.X(j * s - half - 0.04 * s), y: this.Y(i * s - half - 0.04 * s), width: ((2 * half + 0.08 * s) * S).toFixed(1), height: ((2 * half + 0.08 * s) * S).toFixed(1), rx: 9 }, rg);
-        el("rect", { class: "diff-ring", x: this.X(j * s - half - 0.08 * s), y: this.Y(i * s - half - 0.08 * s), width: ((2 * half + 0.16 * s) * S).toFixed(1), height: ((2 * half + 0.16 * s) * S).toFixed(1), rx: 11 }, rg);
-        const inc = el("circle", { class: "incoming", cx: this.X(j * s), cy: this.Y(i * s), r: (0.28 * s * S).toFixed(1) }, rg);
-        const rid = el("text", { class: "rid", x: this.X(j * s - half + 0.05 * s), y: this.Y(i * s - half + 0.16 * s) }, rg);
+        const cell = el("rect", { class: "cell", x: cx - C, y: cy - C, width: 2 * C, height: 2 * C, rx: 7 }, rg);
+        ring("blocked-ring", cx, cy, RING.blocked, 9, rg);
+        const support = ring("support-ring", cx, cy, RING.support, 11, rg);
+        ring("diff-ring", cx, cy, RING.diff, 13, rg);
+        const inc = el("circle", { class: "incoming", cx: cx + C - 9, cy: cy - C + 9, r: 5 }, rg);
+        el("title", {}, inc).textContent = "incoming handoff";
+        const rid = el("text", { class: "rid", x: cx - C + 4, y: cy - C + 12 }, rg);
         rid.textContent = id;
-        const role = el("text", { class: "role", x: this.X(j * s), y: this.Y(i * s + 0.06 * s), "text-anchor": "middle" }, rg);
-        const phase = el("text", { class: "phase", x: this.X(j * s), y: this.Y(i * s + half - 0.07 * s), "text-anchor": "middle" }, rg);
+        AgspecLayout.fit(rid, 2 * C - 22);
+        const role = el("text", { class: "role", x: cx, y: cy + 3.5, "text-anchor": "middle" }, rg);
+        const phase = el("text", { class: "phase", x: cx, y: cy + C - 6, "text-anchor": "middle" }, rg);
         const phaseTitleEl = el("title", {}, phase);
         const title = el("title", {}, rg);
         rg.addEventListener("click", () => viewer.select(id));
-        this.robotEls[id] = { g: rg, cell: cell, role: role, phase: phase, phaseTitle: phaseTitleEl, incoming: inc, title: title };
+        this.robotEls[id] = { g: rg, cell: cell, role: role, phase: phase, phaseTitle: phaseTitleEl, incoming: inc, support: support, title: title };
       }
+      this.rowYs = Array.from({ length: this.rows }, (_, i) => +this.Y(i * s));
     }
     render(t, highlight) {
       const st = this.states.at(Math.min(t, this.doc.T));
@@ -164,7 +93,9 @@
       const s = this.s, S = this.S;
       // shelves stock
       (st.shelves || []).forEach((stock, r) => {
-        if (this.shelfEls[r]) this.shelfEls[r].textContent = Object.keys(stock || {}).map((k) => k + "×" + stock[k]).join(" ");
+        if (!this.shelfEls[r]) return;
+        this.shelfEls[r].textContent = Object.keys(stock || {}).map((k) => k + "×" + stock[k]).join(" ");
+        AgspecLayout.fit(this.shelfEls[r], (0.62 * s - 0.1 * s) * S);
       });
       // activities: colours, roles, phases
       const actOf = {};
@@ -172,6 +103,9 @@
       const blocked = {};
       for (const ev of events) if (ev.type === "blocked" || ev.type === "admission_failed") for (const r of involvedRobots(ev)) blocked[r] = ev;
       const hl = highlight || { robots: new Set(), items: new Set() };
+      // a pending support of a single-member candidate rings its robot (the others draw a polyline)
+      const supported = new Set();
+      for (const cand in st.proposals || {}) { const m = candidateMembers(cand); if (m.length === 1) supported.add(m[0]); }
       let busy = 0;
       for (const id in this.robotEls) {
         const R = this.robotEls[id], rb = (st.robots || {})[id] || {}, a = actOf[id];
@@ -211,16 +145,21 @@
         if (viewer.selected === id) cls.push("selected");
         R.g.setAttribute("class", cls.join(" "));
         R.incoming.style.display = rb.incoming ? "" : "none";
+        R.support.style.display = supported.has(id) ? "" : "none";
         R.title.textContent = id + (rb.holding ? " holding " + rb.holding : "") + (a ? " · " + a.id : "") + (rb.supports ? " · supports " + rb.supports : "");
       }
       this.busy = busy;
+      const C = AgspecLayout.CELL;
+      for (const id in this.robotEls) { AgspecLayout.fit(this.robotEls[id].role, 2 * C - 6); AgspecLayout.fit(this.robotEls[id].phase, 2 * C - 6); }
       if (viewer.selected && this.robotEls[viewer.selected]) {
         const [bx, by] = this.base(viewer.selected);
         this.selReach.setAttribute("cx", this.X(bx)); this.selReach.setAttribute("cy", this.Y(by));
         this.selReach.style.display = "";
       } else this.selReach.style.display = "none";
+      this.labels = [];
       this.renderActs(st, blocked, events);
       this.renderItems(st, hl);
+      this.placeLabels();
     }
     renderActs(st, blocked, events) {
       const g = this.layers.acts, lab = this.layers.labels, pg = this.layers.props, s = this.s, S = this.S;
@@ -247,8 +186,9 @@
             const x = +this.X(tgt[0]), y = +this.Y(tgt[1]), r = (a.members || []).length > 1 ? 7 : 5;
             el("polygon", { class: "target", fill: c, points: [[x, y - r], [x + r, y], [x, y + r], [x - r, y]].map((p) => p.join(",")).join(" ") }, g);
             if ((a.members || []).length > 1) { // a singleton's role and phase are in its cell already
-              const tx = el("text", { class: "proposal-label", x: x + 9, y: y - 6, style: "fill:" + c }, lab);
+              const tx = el("text", { class: "proposal-label op-label", style: "fill:" + c }, lab);
               tx.textContent = (a.operation || "op") + " · " + phaseOf(a, st.t).phase;
+              this.labels.push({ node: tx, order: 2, px: x, py: y + 14, ax: x, ay: y, colour: c });
             }
           } else el("circle", { class: "target", fill: c, cx: this.X(tgt[0]), cy: this.Y(tgt[1]), r: 3.5 }, g);
         }
@@ -260,9 +200,9 @@
         const pts = members.map((m) => this.base(m));
         const cx = pts.reduce((a, p) => a + p[0], 0) / pts.length, cy = pts.reduce((a, p) => a + p[1], 0) / pts.length;
         if (pts.length >= 2) el("polyline", { class: "proposal", points: pts.concat(pts.length > 2 ? [pts[0]] : []).map((p) => this.X(p[0]) + "," + this.Y(p[1])).join(" ") }, pg);
-        else el("circle", { class: "proposal", cx: this.X(cx), cy: this.Y(cy), r: (0.3 * s * S).toFixed(1) }, pg);
-        const tx = el("text", { class: "proposal-label", x: this.X(cx), y: +this.Y(cy) + 4, "text-anchor": "middle" }, lab);
+        const tx = el("text", { class: "proposal-label" }, lab);
         tx.textContent = "support " + sup + "/" + members.length;
+        this.labels.push({ node: tx, order: 3, px: +this.X(cx), py: +this.Y(cy), ax: +this.X(cx), ay: +this.Y(cy) });
       }
       // blocked attempts, flashed with their cause (R-BLOCKING)
       const seen = new Set();
@@ -273,33 +213,35 @@
         const key = rs[0];
         if (seen.has(key)) continue; seen.add(key);
         const [bx, by] = this.base(key);
-        const tx = el("text", { class: "blocked-label", x: this.X(bx), y: +this.Y(by + 0.5 * s) + 2, "text-anchor": "middle" }, lab);
+        const tx = el("text", { class: "blocked-label" }, lab);
         tx.textContent = ev.type === "blocked" ? "blocked: " + ev.cause + " (" + ev.kind + ")" : "admission failed: " + ev.reason;
+        this.labels.push({ node: tx, order: 1, px: +this.X(bx), py: +this.Y(by + 0.5 * s), ax: +this.X(bx), ay: +this.Y(by) + AgspecLayout.CELL, colour: "var(--blocked)" });
       }
     }
     renderItems(st, hl) {
       // drawn from the robots' `holding` (so a duplicated item shows twice); `items` (item -> holder)
       // should agree — an item whose map entry names another holder is drawn with a warning outline
-      const items = st.items || {}, seen = new Set(), stack = {};
+      const items = st.items || {}, seen = new Set();
       const held = [];
       for (const id in st.robots || {}) { const h = st.robots[id].holding; if (h !== null && h !== undefined) held.push([String(h), id]); }
       for (const item in items) if (!held.some((x) => x[0] === item && x[1] === items[item]) && (st.robots || {})[items[item]]) held.push([item, items[item]]);
-      const copies = {}, placed = [];
+      const copies = {};
       for (const [item, holder] of held) {
         // keyed by item (a second copy gets "#2"), so an item changing holder moves (CSS transition)
         copies[item] = (copies[item] || 0) + 1;
         const rb = st.robots[holder], key = copies[item] > 1 ? item + "#" + copies[item] : item;
         seen.add(key);
-        const n = stack[holder] = (stack[holder] || 0) + 1;
         const p = Array.isArray(rb.ee) ? rb.ee : this.base(holder);
         let node = this.itemEls[key];
         if (!node) {
-          // the whole id, in a label as wide as its text (9 px bold: about 6 px a character)
-          const w = Math.max(24, 6 * item.length + 8);
+          // the whole id, in a tag 4 px wider than its text on each side
           node = el("g", { class: "item", "data-item": item }, this.layers.items);
           el("line", { class: "leader", x1: 0, y1: 0, x2: 0, y2: 0 }, node);
-          el("rect", { x: -w / 2, y: -7.5, width: w, height: 15, rx: 3 }, node);
-          el("text", { x: 0, y: 3, "text-anchor": "middle" }, node).textContent = item;
+          const rect = el("rect", { height: 15, rx: 3, y: -7.5 }, node);
+          const text = el("text", { x: 0, y: 3, "text-anchor": "middle" }, node);
+          text.textContent = item;
+          const w = Math.max(24, AgspecLayout.measure(text).w + 8);
+          rect.setAttribute("x", -w / 2); rect.setAttribute("width", w);
           el("title", {}, node);
           node.labelWidth = w;
           this.itemEls[key] = node;
@@ -308,24 +250,41 @@
         node.setAttribute("data-holder", holder);
         node.lastChild.textContent = "item " + item + " held by " + holder + (consistent ? "" : " (state.items says " + (items[item] || "nothing") + ")");
         node.setAttribute("class", "item" + (hl.items.has(item) || hl.robots.has(holder) ? " diff" : "") + (consistent ? "" : " inconsistent"));
-        // in the gap below the holder's cell (cells span ±0.36 s around the base, G-BASE), so a label
-        // never covers a robot; a leader line points at the end effector that holds it (G-END-EFFECTOR)
+        // wanted in the channel below the holder's cell; a leader line points at the end effector
+        // that holds it (G-END-EFFECTOR)
         const [bx, by] = this.base(holder);
-        placed.push({ node: node, x: +this.X(bx), y: +this.Y(by + 0.5 * this.s) + (n - 1) * 16,
-                      ex: +this.X(p[0]), ey: +this.Y(p[1]), w: node.labelWidth });
-      }
-      // on dense grids end-effectors converge on one site: move a label down until it overlaps no other
-      // (labels are 32 x 15 px, centred on their anchor), in a stable order so frames do not jitter
-      placed.sort((a, b) => a.y - b.y || a.x - b.x);
-      const boxes = [];
-      for (const q of placed) {
-        while (boxes.some((b) => Math.abs(b.x - q.x) < (b.w + q.w) / 2 + 1 && Math.abs(b.y - q.y) < 16)) q.y += 16;
-        boxes.push(q);
-        q.node.style.transform = "translate(" + q.x + "px," + q.y + "px)";
-        const leader = q.node.firstChild;
-        leader.setAttribute("x2", (q.ex - q.x).toFixed(1)); leader.setAttribute("y2", (q.ey - q.y).toFixed(1));
+        this.labels.push({ item: node, order: 0, w: node.labelWidth, h: 15, px: +this.X(bx), py: +this.Y(by + 0.5 * this.s),
+                           ax: +this.X(p[0]), ay: +this.Y(p[1]), key: [by, bx, copies[item]] });
       }
       for (const key in this.itemEls) if (!seen.has(key)) { this.itemEls[key].remove(); delete this.itemEls[key]; }
+    }
+    placeLabels() {
+      // item tags first (by holder), then blocked causes, operation labels, pending supports, each
+      // group in a stable order so that frames do not jitter (layout.js)
+      const placer = new AgspecLayout.Placer(this.rowYs, this.W, this.H);
+      const leaders = this.layers.leaders;
+      leaders.textContent = "";
+      const ordered = this.labels.map((q, i) => [q, i]).sort((a, b) => a[0].order - b[0].order ||
+        (a[0].key && b[0].key ? a[0].key[0] - b[0].key[0] || a[0].key[1] - b[0].key[1] || a[0].key[2] - b[0].key[2] : a[1] - b[1]));
+      for (const [q] of ordered) {
+        if (q.item) {
+          const at = placer.place(q.w, q.h, q.px, q.py);
+          q.item.style.transform = "translate(" + at.x + "px," + at.y + "px)";
+          const leader = q.item.firstChild;
+          leader.setAttribute("x2", (q.ax - at.x).toFixed(1)); leader.setAttribute("y2", (q.ay - at.y).toFixed(1));
+          continue;
+        }
+        const b = AgspecLayout.measure(q.node);
+        const at = placer.place(b.w, b.h, q.px, q.py);
+        q.node.setAttribute("x", (at.x - b.x - b.w / 2).toFixed(1));
+        q.node.setAttribute("y", (at.y - b.y - b.h / 2).toFixed(1));
+        if (Math.hypot(at.x - q.px, at.y - q.py) > 6) // moved away from where it belongs: a leader back to it
+          el("line", { class: "label-leader", x1: at.x.toFixed(1), y1: at.y.toFixed(1), x2: q.ax.toFixed(1), y2: q.ay.toFixed(1), style: q.colour ? "stroke:" + q.colour : "" }, leaders);
+      }
+      if (placer.H > this.H) { // no room left on the grid: the picture grows below it (never shrinks)
+        this.H = placer.H;
+        this.svg.setAttribute("viewBox", "0 0 " + this.W.toFixed(1) + " " + this.H.toFixed(1));
+      }
     }
     showReach(on) { this.layers.reach.style.display = on ? "" : "none"; }
     showIds(on) { this.svg.querySelectorAll(".rid").forEach((n) => { n.style.display = on ? "" : "none"; }); }
@@ -424,6 +383,15 @@
     return { robots: robots, items: items };
   }
 
+  function counterValues(pane, t) {
+    const st = pane.state, n = Object.keys(st.robots || {}).length;
+    return {
+      delivered: String(st.delivered), wip: String(st.wip), released: String(st.released), lost: String(st.lost_releases),
+      throughput: t > 0 ? fmt(st.delivered / t, 3) : "–", occupancy: n ? fmt(pane.busy / n, 2) : "–",
+      coalitions: String((st.activities || []).filter((a) => a.kind === "operation" && (a.members || []).length >= 2).length),
+    };
+  }
+
   function tickFromHash(hash) {
     const m = /(?:^#|&)t=(\d{1,9})(?:&|$)/.exec(hash || "");
     return m ? +m[1] : null;
@@ -443,6 +411,18 @@
         this.T = DATA.replay.T;
       }
       const doc = this.panes[0].doc;
+      if (DATA.mode === "diff") {
+        // say whose numbers the header shows: the observed side, the expected one under it
+        const cap = document.getElementById("counters-caption");
+        cap.hidden = false;
+        cap.textContent = DATA.actual ? "counters: observed (implementation); exp = expected (reference)"
+          : "counters: expected (reference); the implementation sent no state";
+        for (const id of ["delivered", "wip", "released", "lost", "throughput", "occupancy", "coalitions"]) {
+          const exp = document.createElement("span");
+          exp.className = "exp"; exp.id = id + "-exp"; exp.hidden = true;
+          document.getElementById(id).parentNode.appendChild(exp);
+        }
+      }
       document.getElementById("title").textContent = DATA.title || doc.title;
       document.title = DATA.title || doc.title;
       const L = doc.layout, src = doc.source || {};
@@ -506,18 +486,22 @@
       const pane = this.panes[this.panes.length - 1], st = pane.state;
       document.getElementById("scrub").value = String(t);
       document.getElementById("tick").textContent = String(t);
-      document.getElementById("delivered").textContent = String(st.delivered);
-      document.getElementById("wip").textContent = String(st.wip);
-      document.getElementById("released").textContent = String(st.released);
-      document.getElementById("lost").textContent = String(st.lost_releases);
-      document.getElementById("throughput").textContent = t > 0 ? fmt(st.delivered / t, 3) : "–";
-      const n = Object.keys(st.robots || {}).length;
-      document.getElementById("occupancy").textContent = n ? fmt(pane.busy / n, 2) : "–";
+      // the counters show the last pane (the observed side of a --diff page); a --diff page with both
+      // sides shows the expected value under each, marked where the two differ
+      const shown = counterValues(pane, t);
+      const other = this.panes.length > 1 ? counterValues(this.panes[0], t) : null;
+      for (const id in shown) {
+        document.getElementById(id).textContent = shown[id];
+        const exp = document.getElementById(id + "-exp");
+        if (!exp) continue;
+        exp.hidden = !other;
+        exp.textContent = other ? "exp " + other[id] : "";
+        exp.parentNode.classList.toggle("differs", !!other && other[id] !== shown[id]);
+      }
       const ks = pane.doc.kstar || [];
       // K*(s_t) where the reference reproduced s_t (capacity.py); otherwise the episode mean from the footer
       document.getElementById("kstar-label").textContent = t < ks.length ? "K*" : "K* mean";
       document.getElementById("kstar").textContent = t < ks.length ? String(ks[t]) : (this.kmean !== null ? fmt(this.kmean, 2) : "–");
-      document.getElementById("coalitions").textContent = String((st.activities || []).filter((a) => a.kind === "operation" && (a.members || []).length >= 2).length);
       document.getElementById("activities").innerHTML = activitiesHtml(st);
       document.getElementById("proposals").innerHTML = proposalsHtml(st);
       document.getElementById("events").innerHTML = eventsHtml(pane.events, t);
