@@ -61,7 +61,7 @@ def print_table(table: Any, console: Console | None = None) -> None:
     Console(file=console.file, width=max(width, console.width), highlight=False).print(table)
 
 
-# the head of a rendered diagnostic (agspec.diagnostics.Diagnostic.header): `FILE:LINE:COL: error[AG416]: `
+# the head of a rendered diagnostic (agspec.formats.diagnostics.Diagnostic.header): `FILE:LINE:COL: error[AG416]: `
 DIAGNOSTIC_HEAD = re.compile(r"^[^\n]*?\b(?:error|warning)\[[A-Z]+\d+\]: ")
 
 
