@@ -97,14 +97,13 @@ def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Pat
             if j == 0:
                 ax.set_ylabel(ylabel)
     handles, names = axes[1][0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="outside lower center", ncols=min(len(names), 3), frameon=False,
-               fontsize="small")
-    fig.suptitle(f"Decentralized reference behavior across workload families\n{instances}; 95 % intervals over "
-                 "instances (published rows: over training seeds)", fontsize="medium")
+    # F-POLICY-BUDGET: each trained series' budget and evaluation action, at the head of the legend
     footer = trained_notes({label: t for label, t in trained_rows(data["delivered"]).items()
                             if ("policy", label) in {key(r) for r in shown}})
-    if footer:  # F-POLICY-BUDGET: each trained series' budget and evaluation action, under the figure
-        fig.text(0.01, 0.0, "\n".join(footer), ha="left", va="top", fontsize="x-small")
-    fig.savefig(path, format=path.suffix.lstrip(".").lower(), bbox_inches="tight" if footer else None)
+    fig.legend(handles, names, loc="outside lower center", ncols=min(len(names), 3), frameon=False,
+               fontsize="small", title="\n".join(footer) or None, title_fontsize="x-small", alignment="left")
+    fig.suptitle(f"Decentralized reference behavior across workload families\n{instances}; 95 % intervals over "
+                 "instances (published rows: over training seeds)", fontsize="medium")
+    fig.savefig(path, format=path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path

@@ -149,18 +149,16 @@ def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
         for ax in row:
             for h, name in zip(*ax.get_legend_handles_labels()):
                 handles.setdefault(name, h)
-    if handles:
-        fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncols=min(len(handles), 3),
-                   frameon=False, fontsize=8)
+    footer = [budget_note(a, s, members) for (s, a), members in groups.items()]  # F-POLICY-BUDGET
+    if any(trained.MARK in line for line in footer):
+        footer.append(trained.mark_note())
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncols=max(1, min(len(handles), 3)),
+               frameon=False, fontsize=8, title="\n".join(footer), title_fontsize=7, alignment="left")
     title = [f"Training curves: median and inter-quartile range over seeds; {SOURCE}"]
     if shown_indices:
         title.append(VALIDATION.format(indices=_indices(sorted(shown_indices))))
     fig.suptitle("\n".join(title), fontsize=8)
-    footer = [budget_note(a, s, members) for (s, a), members in groups.items()]
-    if any(trained.MARK in line for line in footer):
-        footer.append(trained.mark_note())
-    fig.text(0.01, 0.0, "\n".join(footer), ha="left", va="top", fontsize=7)
-    fig.savefig(path, format=path.suffix.lstrip(".").lower(), bbox_inches="tight")
+    fig.savefig(path, format=path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path
 
