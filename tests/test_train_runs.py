@@ -175,7 +175,8 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     res = runner.invoke(cli, ["report", str(bundle)])  # T-CHECKPOINT-ROW: one run, one instance
     assert res.exit_code == 0, res.output
     assert "| IPPO† | flow-easy | 10 | greedy | 1 | 1 |" in res.output and "21.85 ± 0.46" in res.output
-    assert "IPPO† — 10 of the paper's 1,536,000 training steps" in res.output  # F-POLICY-BUDGET
+    assert "run (IPPO†) — 10 of the paper's 1,536,000 training steps" in res.output  # F-POLICY-BUDGET
+    assert "IPPO† on flow-easy — 10 of the paper's 1,536,000 training steps" in res.output
     # a run that is not complete is refused
     (tmp_path / "half").mkdir()
     (tmp_path / "half" / "run.json").write_text(json.dumps({**summary, "status": "running", "policy": None}))
