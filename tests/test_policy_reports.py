@@ -98,7 +98,7 @@ def check_common(text: str, truth: dict) -> None:
     assert describe_indices(truth["indices"], truth["split"]) in text.replace("--", "–")
     # a split is named with its count ("3 of 50 final-test instances"), never alone
     assert not re.search(r"(?<![0-9] )\b(final-test|validation) instances", text)
-    published = "(published)" in text or r"$^{\dagger}$" in text or "IPPO" in text
+    published = "(published)" in text or "IPPO" in text
     assert published == (truth["split"] == "final-test"), "published final-test rows beside other instances"
     if published:
         assert "training seeds" in text

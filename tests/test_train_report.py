@@ -76,7 +76,8 @@ def test_checkpoint_row_is_the_mean_of_per_policy_means_with_a_t_interval():  # 
     assert math.isclose(row["half_width"], 4.302652729911275 * 3 / math.sqrt(3), rel_tol=1e-9)
     assert row["published"] == {"mean": 21.852, "half_width": 0.455}  # IPPO flow-easy, tab:checkpoint-heldout
     text = heldout.markdown([row])
-    assert "| IPPO | flow-easy | 3 | 2 | 5.00 ± 7.45 | 21.85 ± 0.46 | ippo-s3 |" in text
+    assert "| IPPO† | flow-easy | 10 | greedy | 3 | 2 | 5.00 ± 7.45 | 21.85 ± 0.46 | ippo-s3 |" in text
+    assert "IPPO† on flow-easy — 10 of the paper's 1,536,000 training steps" in text  # F-POLICY-BUDGET
     assert "5.00$\\pm$7.45" in heldout.latex([row])
 
 

@@ -170,11 +170,13 @@ def test_cli_trains_resumes_and_evaluates_a_run(tmp_path):  # T-CLI, F-POLICY-CH
     summary = read_summary(out)
     assert ident["file_sha256"] == summary["policy"]["sha256"]
     assert ident["training"] == {"algorithm": "ippo", "scenario": SCENARIO, "seed": 0, "steps": 10,
-                                 "config_sha256": summary["config_sha256"]}
+                                 "config_sha256": summary["config_sha256"], "action": "greedy"}  # F-POLICY-BUDGET
     assert [e["status"] for e in data["episodes"] if e["controller"] == ident["label"]] == ["ok"]
     res = runner.invoke(cli, ["report", str(bundle)])  # T-CHECKPOINT-ROW: one run, one instance
     assert res.exit_code == 0, res.output
-    assert "| IPPO | flow-easy | 1 | 1 |" in res.output and "21.85 ± 0.46" in res.output
+    assert "| IPPO† | flow-easy | 10 | greedy | 1 | 1 |" in res.output and "21.85 ± 0.46" in res.output
+    assert "run (IPPO†) — 10 of the paper's 1,536,000 training steps" in res.output  # F-POLICY-BUDGET
+    assert "IPPO† on flow-easy — 10 of the paper's 1,536,000 training steps" in res.output
     # a run that is not complete is refused
     (tmp_path / "half").mkdir()
     (tmp_path / "half" / "run.json").write_text(json.dumps({**summary, "status": "running", "policy": None}))

@@ -293,3 +293,50 @@ def test_td_target_is_single_network_with_mse(done):  # T-QMIX-UPDATE
         target = t[3] + (0.0 if done else 0.99 * float(boot))
     stats = learner.train_step()
     assert stats["td_loss"] == pytest.approx((float(q_tot) - target) ** 2, rel=1e-5)
+
+
+def _legal_masks(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Masks as O-MASK makes them: idle always legal, then a few legal actions in a few families."""
+    mask = np.zeros((n, A), dtype=np.int8)
+    mask[:, 0] = 1
+    for row in mask:
+        row[rng.choice(np.arange(1, A), size=int(rng.integers(1, 12)), replace=False)] = 1
+    return mask
+
+
+def _uniformity(probs: torch.Tensor, mask: np.ndarray) -> tuple[float, float]:
+    """(largest |p/u - 1| over legal actions, largest |family mass - uniform's|) against uniform masked."""
+    legal = torch.from_numpy(mask).bool()
+    uniform = legal.float() / legal.sum(-1, keepdim=True)
+    ratio = (probs[legal] / uniform[legal] - 1).abs().max()
+    fam = nets.action_families()
+    mass = torch.zeros(probs.shape[0], 6).index_add_(1, fam, probs - uniform).abs().max()
+    return float(ratio), float(mass)
+
+
+def test_the_untrained_actor_is_uniform_over_legal_actions():  # T-ACTOR, T-MASK, RES-UNTRAINED-ACTOR
+    """The heads' gain 0.01 makes every logit about 0, so the masked softmax is uniform over the legal
+    flat actions — not uniform over families then slots; a gain-1 head or a family-then-slot policy
+    fails the same check."""
+    rng = np.random.default_rng(0)
+    obs = torch.from_numpy((rng.random((64, OBS)) < 0.01).astype(np.float32))  # ~1 % non-zero (A-OBS-VECTOR)
+    mask = _legal_masks(rng, 64)
+    for seed in range(3):
+        actor = nets.SharedActor(256, 2, gen(seed))
+        with torch.no_grad():
+            probs = torch.softmax(nets.masked_logits(actor(obs), torch.from_numpy(mask)), -1)
+        ratio, family = _uniformity(probs, mask)
+        assert ratio < 0.1 and family < 0.03, (seed, ratio, family)
+    # mutant 1: heads with gain 1 (no longer near-uniform)
+    loud = nets.SharedActor(256, 2, gen(0))
+    nets.orthogonal(loud.slot_head, 1.0, gen(1))
+    with torch.no_grad():
+        probs = torch.softmax(nets.masked_logits(loud(obs), torch.from_numpy(mask)), -1)
+    assert _uniformity(probs, mask)[0] > 0.1
+    # mutant 2: uniform over the legal families, then over the legal slots of the family drawn
+    legal = torch.from_numpy(mask).float()
+    fam = nets.action_families()
+    per_family = torch.zeros(64, 6).index_add_(1, fam, legal)
+    families = (per_family > 0).sum(-1, keepdim=True)
+    nested = legal / per_family[:, fam].clamp(min=1) / families
+    assert _uniformity(nested, mask)[1] > 0.1

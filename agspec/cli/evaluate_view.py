@@ -135,6 +135,10 @@ class Campaign:
         own = {(s.label, name): frozenset(self.indices) for s in self.specs for name in self.scenarios}
         return merge(self.reused_planned, own)
 
+    def identities(self) -> list[dict[str, Any]]:
+        """The policies' bundle identities, those run now and those of the bundles read (F-POLICY-BUDGET)."""
+        return [s.identity() for s in self.specs] + list((self.reused or {}).get("policies", []))
+
     @property
     def user_labels(self) -> list[str]:
         return [lab for lab in self.labels if lab not in CONTROLLERS]
@@ -311,7 +315,7 @@ class Campaign:
                       "evaluation")
             return bool(problems)
         for metric in metrics:
-            rows = layout(self.episodes, labels, self.scenarios, metric, with_published, planned)
+            rows = layout(self.episodes, labels, self.scenarios, metric, with_published, planned, self.identities())
             table = Table(title=f"{metric}: {instances}")
             table.add_column("Method")
             table.add_column("n", justify="right")

@@ -68,7 +68,8 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
 
             target = output or bundles[0].with_suffix("." + to)
             try:
-                draw(episodes, labels, target, with_published=with_published, planned=planned, instances=instances)
+                draw(episodes, labels, target, with_published=with_published, planned=planned, instances=instances,
+                     policies=data["policies"])
             except OSError as exc:
                 fail(f"cannot write {target}: {exc.strerror or exc}")
             stdout.print(f"figure written to {target}")
@@ -77,7 +78,7 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
         mine = [lab for lab in labels if lab not in CONTROLLERS]
         parts = []
         for metric in metrics:
-            rows = layout(episodes, labels, scenarios, metric, with_published, planned)
+            rows = layout(episodes, labels, scenarios, metric, with_published, planned, data["policies"])
             if to == "latex":
                 parts.append(latex(rows, scenarios, metric, instances=instances))
             else:

@@ -20,6 +20,7 @@ from agspec import SPEC_VERSION, __version__
 from agspec.formats import limits
 from agspec.formats.schemas import self_check
 from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
+from agspec.policy.trained import with_action
 
 FORMAT = "agspec-results/1"
 
@@ -47,7 +48,9 @@ def header(policies: Iterable[Mapping[str, Any]], instances: Iterable[Mapping[st
            ) -> dict[str, Any]:
     head = {"format": FORMAT, "agspec_version": __version__, "spec_version": SPEC_VERSION,
             "catalogue_digest": catalogue_digest(), "split": split, "command": sys.argv[1:], "workers": workers,
-            "options": dict(options), "host": host_facts(), "policies": list(policies), "instances": list(instances)}
+            "options": dict(options), "host": host_facts(),
+            # F-POLICY-BUDGET: a trained policy's identity states the action it is evaluated with
+            "policies": [with_action(p) for p in policies], "instances": list(instances)}
     if planned is not None:  # F-POLICY-COVERAGE: what the summaries must be over
         head["planned"] = planned_entries(planned)
     return head
@@ -153,7 +156,7 @@ def combine(bundles: list[tuple[str, Mapping[str, Any]]]) -> dict[str, Any]:
     instances: dict[tuple[str, int], dict[str, Any]] = {}
     episodes: dict[tuple[str, str, int, bool], dict[str, Any]] = {}
     for name, doc in bundles:
-        for p in doc["policies"]:
+        for p in map(with_action, doc["policies"]):  # an earlier bundle's checkpoint ran the masked argmax
             known = policies.get(p["label"])
             if known is not None and known != p:
                 raise BundleError(f"{name}: policy label {p['label']!r} names another policy in an earlier bundle; "

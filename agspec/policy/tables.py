@@ -4,7 +4,9 @@
 scenario columns; :func:`markdown` and :func:`latex` (booktabs, the paper's format) render it, as
 does the CLI's rich table.  Cells are mean ± 1.96·s/√n over the instances (F-POLICY-COMPARISON);
 every cell carries its coverage (F-POLICY-COVERAGE) and every rendering shows n per row, marks an
-incomplete cell with ‡ and its "n of N", and says what the published rows' intervals are over.
+incomplete cell with ‡ and its "n of N", and says what the published rows' intervals are over.  A
+trained policy's row (F-POLICY-BUDGET) is named by its method, marked † below the paper's training
+budget, and footnoted with its budget and evaluation action.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.controllers import CONTROLLERS
-from agspec.policy import published
+from agspec.policy import published, trained
 from agspec.policy.coverage import Planned, coverage, planned_from_episodes
 from agspec.policy.stats import summary_cell
 
@@ -32,6 +34,7 @@ class Row:
     label: str
     kind: str  # reference | published | policy
     cells: tuple[dict[str, Any] | None, ...]
+    training: Mapping[str, Any] | None = None  # F-POLICY-BUDGET: the run of a trained policy
 
     @property
     def complete(self) -> bool:
@@ -53,12 +56,15 @@ def published_cell(metric: str, name: str, scenario: str) -> dict[str, Any] | No
 
 
 def layout(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], scenarios: Sequence[str], metric: str,
-           with_published: bool = True, planned: Planned | None = None) -> list[Row]:
+           with_published: bool = True, planned: Planned | None = None,
+           policies: Sequence[Mapping[str, Any]] | Mapping[str, Mapping[str, Any]] | None = None) -> list[Row]:
     """References first (paper order), then the paper's published MARL rows, then the user's policies.
 
     ``planned`` (F-POLICY-COVERAGE) says which episodes each cell should be over; without it, every
-    policy is expected on every instance that any policy ran in the scenario.
+    policy is expected on every instance that any policy ran in the scenario.  ``policies`` (the
+    bundle's identities) give a trained policy's row its run (F-POLICY-BUDGET).
     """
+    runs = trained.trainings(policies)
     plan = planned if planned is not None else planned_from_episodes(episodes)
 
     def cell(label: str, scenario: str) -> dict[str, Any]:
@@ -72,7 +78,7 @@ def layout(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], scenari
             cells = tuple(published_cell(metric, name, s) for s in scenarios)
             if any(cells):
                 out.append(Row(name, "published", cells))
-    out += [Row(lab, "policy", tuple(cell(lab, s) for s in scenarios)) for lab in mine]
+    out += [Row(lab, "policy", tuple(cell(lab, s) for s in scenarios), runs.get(lab)) for lab in mine]
     return out
 
 
@@ -107,11 +113,18 @@ def row_n(row: Row) -> str:
 
 
 def row_name(row: Row) -> str:
+    if row.training is not None:  # F-POLICY-BUDGET
+        return trained.row_name(row.label, row.training)
     return display(row.label) + (" (published)" if row.kind == "published" else "")
 
 
+def trained_rows(rows: Sequence[Row]) -> dict[str, Mapping[str, Any]]:
+    return {r.label: r.training for r in rows if r.training is not None}
+
+
 def notes(rows: Sequence[Row], instances: str) -> list[str]:
-    """What every rendering says under its table: what n and the interval are over, and the marks."""
+    """What every rendering says under its table: what n and the interval are over, the marks, and each
+    trained row's budget and evaluation action (F-POLICY-BUDGET)."""
     out = [f"Cells: mean ± 95 % half-width (1.96·s/√n) over the n instances with an ok episode, of {instances}; "
            "a mean without ± is over n = 1 (no interval)."]
     if any(not r.complete for r in rows):
@@ -120,8 +133,9 @@ def notes(rows: Sequence[Row], instances: str) -> list[str]:
     if any(r.kind == "published" for r in rows):
         out.append("Published rows are copied from the paper (fig:familyoutcomes, tab:checkpoint-heldout), not re-run: "
                    "their n is training seeds and their interval a 95 % Student-t interval over those seeds, each "
-                   "seed's value a mean over the 50 final-test instances.")
-    return out
+                   "seed's value a mean over the 50 final-test instances, each trained for the paper's "
+                   f"{trained.paper_steps():,} environment steps.")
+    return out + trained.notes(trained_rows(rows))
 
 
 def fmt_num(x: float | None, d: int = 3) -> str:
@@ -159,9 +173,9 @@ def markdown(rows: list[Row], scenarios: Sequence[str], metric: str, comparisons
     return "\n".join(lines) + "\n"
 
 
-def _tex(text: str) -> str:
+def tex(text: str) -> str:
     return (text.replace("_", r"\_").replace("&", r"\&").replace("%", r"\%").replace("#", r"\#")
-            .replace("–", "--"))
+            .replace("–", "--").replace("—", "---").replace("ε", r"$\varepsilon$"))
 
 
 def latex(rows: list[Row], scenarios: Sequence[str], metric: str, caption: str | None = None,
@@ -169,8 +183,8 @@ def latex(rows: list[Row], scenarios: Sequence[str], metric: str, caption: str |
     """A booktabs table as in the paper: families as column groups, difficulties as columns, and n."""
     grouped = all("-" in s and s.rsplit("-", 1)[1] in DIFFICULTIES for s in scenarios)
     out = [r"\begin{table}[t]", r"\centering", r"\small",
-           rf"\caption{{{_tex(caption or metric.replace('_', ' ').capitalize())} "
-           rf"(mean $\pm$ 95\,\% half-width over the $n$ instances with an ok episode, of {_tex(instances)}).}}",
+           rf"\caption{{{tex(caption or metric.replace('_', ' ').capitalize())} "
+           rf"(mean $\pm$ 95\,\% half-width over the $n$ instances with an ok episode, of {tex(instances)}).}}",
            r"\begin{tabular}{lr" + "c" * len(scenarios) + "}", r"\toprule"]
     if grouped:
         families = list(dict.fromkeys(s.rsplit("-", 1)[0] for s in scenarios))
@@ -185,14 +199,14 @@ def latex(rows: list[Row], scenarios: Sequence[str], metric: str, caption: str |
         out.append(" ".join(spans))
         out.append("Method & $n$ & " + " & ".join(rf"\textsc{{{s.rsplit('-', 1)[1]}}}" for s in scenarios) + r" \\")
     else:
-        out.append("Method & $n$ & " + " & ".join(_tex(s) for s in scenarios) + r" \\")
+        out.append("Method & $n$ & " + " & ".join(tex(s) for s in scenarios) + r" \\")
     out.append(r"\midrule")
     previous = None
     for row in rows:
         if previous is not None and row.kind != previous:
             out.append(r"\addlinespace")
         previous = row.kind
-        name = _tex(display(row.label)) + (r"$^{\dagger}$" if row.kind == "published" else "")
+        name = tex(row_name(row)).replace(trained.MARK, r"$^{\dagger}$")
         cells = [_latex_cell(c, metric) for c in row.cells]
         n = row_n(row).replace(INCOMPLETE, r"$^{\ddagger}$")
         out.append(name + " & " + _tex_n(n) + " & " + " & ".join(cells) + r" \\")
@@ -202,8 +216,10 @@ def latex(rows: list[Row], scenarios: Sequence[str], metric: str, caption: str |
         foot.append(r"$^{\ddagger}$Incomplete: fewer ok episodes than planned (errors or missing episodes), shown as "
                     r"($n$ of $N$); the mean leaves those episodes out.")
     if any(r.kind == "published" for r in rows):
-        foot.append(r"$^{\dagger}$Published in the AssemblyGrid v1 paper (not re-run); $n$ is training seeds and the "
+        foot.append(r"Published rows: from the AssemblyGrid v1 paper (not re-run), trained for "
+                    + tex(f"{trained.paper_steps():,}") + r" environment steps; $n$ is training seeds and the "
                     r"interval a 95\,\% Student-t interval over those seeds.")
+    foot += [tex(line).replace(trained.MARK, r"$^{\dagger}$") for line in trained.notes(trained_rows(rows))]
     if foot:
         out.append(r"\par\footnotesize " + r" ".join(foot))
     out.append(r"\end{table}")
