@@ -33,7 +33,8 @@ import numpy as np
 import torch
 
 from agspec.train.api import resolve_config
-from agspec.train import curriculum, nets
+from agspec.checkpoint import nets
+from agspec.train import curriculum
 from agspec.train.rollout import TeamEnv
 from agspec.train.run import _learner
 
