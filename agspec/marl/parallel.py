@@ -134,12 +134,13 @@ class AssemblyGridParallelEnv(ParallelEnv):
     def __init__(self, scenario: str | Path | Mapping[str, Any], index: int | None = None, *,
                  split: str | None = None, seed: int | None = None, stage: int = 0,
                  realization_steps: int | None = None, render_mode: str | None = None,
-                 max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
+                 max_cycles: int | None = None, capacity: bool = False, search_paths: tuple[str, ...] = ()):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise AdapterError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self._scenario, self._search_paths = scenario, search_paths
         self.render_mode = render_mode
         self.max_cycles = max_cycles
+        self.capacity = bool(capacity)  # A-PZ-CAPACITY: M-CAPACITY sampled only when asked for
         self.curriculum = make_curriculum(scenario, index, split, seed, stage, realization_steps, search_paths)
         self.position: int | None = None  # the curriculum item now played (None: not a split env, or an option)
         self.total_steps = 0  # env steps over the environment's life (the clock of realization_steps)
@@ -152,7 +153,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
 
     def _set_instance(self, instance: dict[str, Any]) -> None:
         self.instance = instance
-        self.sim = Simulator(instance)
+        self.sim = Simulator(instance, capacity=self.capacity)
         self.public = PublicInfo.of(self.sim.model)
         self._encoder = BatchEncoder(self.sim.model, self.public)
         agents = self.sim.agents()
@@ -274,7 +275,9 @@ class AssemblyGridParallelEnv(ParallelEnv):
         pass
 
     def final_metrics(self) -> dict[str, Any]:
-        """The benchmark measures of the episode so far (chapter 7): what evaluation reports."""
+        """The benchmark measures of the episode so far (chapter 7): what evaluation reports when the
+        environment was made with ``capacity=True``; without it the M-CAPACITY and M-RF-BR measures
+        are null (A-PZ-CAPACITY)."""
         return self.sim.final_metrics()
 
 
