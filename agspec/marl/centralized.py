@@ -54,9 +54,10 @@ class CentralizedEnv(gym.Env):
         return self.par.sim
 
     def _stack(self, per_agent: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
+        # A-PZ-ARRAYS: the parallel env's arrays are every robot's rows in this env's (row-major) order
         return {
-            "observation": np.stack([per_agent[a]["observation"] for a in self.robots]),
-            "action_mask": np.stack([per_agent[a]["action_mask"] for a in self.robots]),
+            "observation": self.par.observation_array,
+            "action_mask": self.par.action_mask_array,
             "state": self.par.state(),
         }
 

@@ -206,6 +206,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
             for k, agent in enumerate(self.possible_agents):
                 self.action_space(agent).seed(int(seed) + k)
         self.sim.reset(seed)
+        self._encoder.reset()
         self.agents = list(self.possible_agents)
         self.last_events = list(self.sim.reset_events)
         self._cycles = 0
@@ -213,10 +214,13 @@ class AssemblyGridParallelEnv(ParallelEnv):
         return obs, {a: {"action_mask": obs[a]["action_mask"]} for a in self.agents}
 
     def _observations(self) -> dict[str, dict[str, np.ndarray]]:
-        # A-OBS-VECTOR of every agent in one pass (the same bytes as encode_observation of sim.observe())
+        # A-OBS-VECTOR and O-MASK of every agent into two arrays (the same bytes as encode_observation of
+        # sim.observe()); each agent's entries are row views of them (A-PZ-ARRAYS)
         decision = self.sim.decision
-        vectors, masks = self._encoder.encode(self.sim.state, decision.options, decision.masks)
-        return {robot: {"observation": vectors[k], "action_mask": masks[k]} for k, robot in enumerate(self.possible_agents)}
+        self.observation_array, self.action_mask_array = self._encoder.encode(
+            self.sim.state, decision.options, decision.masks)
+        return {robot: {"observation": vector, "action_mask": mask}
+                for robot, vector, mask in zip(self.possible_agents, self.observation_array, self.action_mask_array)}
 
     def supporting(self) -> dict[str, bool]:
         """Which robots hold a pending support now (the c_sup input of A-REWARD-MILESTONE)."""
