@@ -88,10 +88,12 @@ class BatchEncoder:
         n = len(self.cells)
         self._keys: list[tuple | None] = [None] * n
         self._supports: list[str | None] = [None] * n
-        self._options: list[tuple[object, str | None] | None] = [None] * n
+        self._options: list[object] = [None] * n
         self._used: list[tuple[int, int]] = [(0, 0)] * n  # option slots written per agent (picks, operations)
         self._masks: list[object] = [None] * n
         self._t: int | None = None
+        self._state: State | None = None
+        self._robots: list = []
 
     # ------------------------------------------------------------------ parts
 
@@ -160,43 +162,39 @@ class BatchEncoder:
     def update(self, state: State, options, masks) -> None:
         """Bring :attr:`obs` and :attr:`mask` to this epoch: ``options`` and ``masks`` are the decision
         snapshot's per-cell Options and O-MASK tuples."""
-        t, cells = state.t, self.cells
-        robots = [state.robots[c] for c in cells]
+        t, cells, n = state.t, self.cells, len(self.cells)
+        if state is not self._state:  # robots are mutated in place for the life of a state
+            self._state, self._robots = state, [state.robots[c] for c in cells]
+        robots = self._robots
         # public features: (held item, busy = not free (R-EXECUTION), activity label, role label)
         keys = [(r.holding, r.busy_until > t or r.incoming is not None, r.op_label, r.role_label) for r in robots]
         if keys != self._keys:
             table = self._table
-            for k, (key, last) in enumerate(zip(keys, self._keys)):
-                if key != last:
-                    table[k] = self._row(state, key)
+            for k in [k for k, key, last in zip(range(n), keys, self._keys) if key != last]:
+                table[k] = self._row(state, keys[k])
             self._keys = keys
-            n = len(cells)
             self.obs[:, 0:7] = table[:n, 1:8]
             self.obs[:, SELF_DIM:_COUNTS_AT] = table[self.neighbours].reshape(n, 8 * NEIGHBOUR_DIM)
+        opts = [options[c] for c in cells]
+        rewrite = {k for k, o, last in zip(range(n), opts, self._options) if o is not last}
         supports = [r.supports for r in robots]
         if supports != self._supports:
-            for k, (s, last) in enumerate(zip(supports, self._supports)):
-                if s != last:
-                    self.obs[k, 7] = float(s is not None)
-                    self.obs[k, 8] = str_hash(s)
+            for k in [k for k, s, last in zip(range(n), supports, self._supports) if s != last]:
+                self.obs[k, 7] = float(supports[k] is not None)
+                self.obs[k, 8] = str_hash(supports[k])
+                if opts[k] is not NO_OPTIONS:  # the "is own pending support" flag of its operation slots
+                    rewrite.add(k)
             self._supports = supports
+        for k in rewrite:
+            self._write_options(k, opts[k], supports[k])
+        self._options = opts  # kept alive, so an identity seen here is never another object's
         if t != self._t:
             self.obs[:, 11] = _saturate(float(t))
             self._t = t
-        last_options = self._options
-        for k, c in enumerate(cells):
-            opts = options[c]
-            last = last_options[k]
-            if last is not None and last[0] is opts and (opts is NO_OPTIONS or last[1] == supports[k]):
-                continue
-            self._write_options(k, opts, supports[k])
-            last_options[k] = (opts, supports[k])  # the reference keeps the Options alive: its id stays its own
-        last_masks = self._masks
-        for k, c in enumerate(cells):
-            m = masks[c]
-            if m is not last_masks[k]:
-                self.mask[k] = self._mask_row(m)
-                last_masks[k] = m
+        ms = [masks[c] for c in cells]
+        for k in [k for k, m, last in zip(range(n), ms, self._masks) if m is not last]:
+            self.mask[k] = self._mask_row(ms[k])
+        self._masks = ms
 
     def encode(self, state: State, options, masks) -> tuple[np.ndarray, np.ndarray]:
         """(observations float32 [robots, OBS_DIM], action masks int8 [robots, N_ACTIONS]) of this epoch:
