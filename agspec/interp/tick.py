@@ -138,9 +138,11 @@ class Simulator:
         """Apply one joint action (robot id -> action int, or a list in row-major order)."""
         state, model, d = self.state, self.model, self.decision
         if isinstance(joint_action, Mapping):
-            actions = {c: int(joint_action.get(r, IDLE)) for c, r in zip(model.cells, model.cell_ids)}
+            actions = [int(joint_action.get(r, IDLE)) for r in model.cell_ids]
         else:
-            actions = {c: int(a) for c, a in zip(model.cells, joint_action)}
+            actions = [int(a) for _, a in zip(model.cells, joint_action)]
+            if len(actions) < len(model.cells):
+                raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
 
@@ -150,8 +152,7 @@ class Simulator:
 
         # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
         decoded: dict[Cell, tuple[str, Any]] = {}  # robots that start something (idle decodes to no activity)
-        for c, robot_id in zip(model.cells, model.cell_ids):
-            a = actions[c]
+        for c, robot_id, a in zip(model.cells, model.cell_ids, actions):
             if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")

@@ -254,9 +254,9 @@ class AssemblyGridParallelEnv(ParallelEnv):
                                          and not result.terminated)
         agents = self.agents
         obs = self._observations()
-        rewards = {a: team for a in agents}
-        terms = {a: bool(result.terminated) for a in agents}
-        truncs = {a: bool(truncated) for a in agents}
+        rewards = dict.fromkeys(agents, team)
+        terms = dict.fromkeys(agents, bool(result.terminated))
+        truncs = dict.fromkeys(agents, bool(truncated))
         infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": result.applied[a]} for a in agents}
         if result.terminated or truncated:
             self.agents = []
