@@ -87,7 +87,7 @@ class BatchEncoder:
         self._rows.clear()  # a row's key names a product by id; ids start over with the episode
         n = len(self.cells)
         self._keys: list[tuple | None] = [None] * n
-        self._supports: list[str | None] = [None] * n
+        self.supports: list[str | None] = [None] * n  # each robot's pending support (R-SUPPORT) at the last update
         self._options: list[object] = [None] * n
         self._used: list[tuple[int, int]] = [(0, 0)] * n  # option slots written per agent (picks, operations)
         self._masks: list[object] = [None] * n
@@ -178,13 +178,13 @@ class BatchEncoder:
         opts = [options[c] for c in cells]
         rewrite = {k for k, o, last in zip(range(n), opts, self._options) if o is not last}
         supports = [r.supports for r in robots]
-        if supports != self._supports:
-            for k in [k for k, s, last in zip(range(n), supports, self._supports) if s != last]:
+        if supports != self.supports:
+            for k in [k for k, s, last in zip(range(n), supports, self.supports) if s != last]:
                 self.obs[k, 7] = float(supports[k] is not None)
                 self.obs[k, 8] = str_hash(supports[k])
                 if opts[k] is not NO_OPTIONS:  # the "is own pending support" flag of its operation slots
                     rewrite.add(k)
-            self._supports = supports
+            self.supports = supports
         for k in rewrite:
             self._write_options(k, opts[k], supports[k])
         self._options = opts  # kept alive, so an identity seen here is never another object's

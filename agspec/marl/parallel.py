@@ -222,6 +222,11 @@ class AssemblyGridParallelEnv(ParallelEnv):
         return {robot: {"observation": vector, "action_mask": mask}
                 for robot, vector, mask in zip(self.possible_agents, self.observation_array, self.action_mask_array)}
 
+    @property
+    def supporting_before(self) -> dict[str, bool]:
+        """Which robots held a pending support before the last step (the c_sup input of A-REWARD-MILESTONE)."""
+        return {agent: s is not None for agent, s in zip(self.possible_agents, self._supports_before)}
+
     def supporting(self) -> dict[str, bool]:
         """Which robots hold a pending support now (the c_sup input of A-REWARD-MILESTONE)."""
         robots = self.sim.state.robots
@@ -244,7 +249,8 @@ class AssemblyGridParallelEnv(ParallelEnv):
                 joint[agent] = int(np.asarray(value).item())
             except (TypeError, ValueError):
                 raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
-        self.supporting_before = self.supporting()
+        # the encoder read every robot's pending support at the last epoch: the state this step starts from
+        self._supports_before = self._encoder.supports
         result = self.sim.step(joint)
         self.last_events = result.events
         self._cycles += 1
