@@ -22,6 +22,7 @@ QUICK = [
     ["bench_kstar_visited.py", "--indices", "1000", "--ticks", "30", "--scenario", "coalition-medium",
      "--controller", "greedy"],
     ["bench_marl.py", "--steps", "20", "--scenario", "coalition-medium"],
+    ["bench_throughput.py", "--steps", "20", "--reps", "1", "--scenario", "coalition-medium", "--controller", "greedy"],
     ["bench_episodes.py", "--controller", "greedy", "--floor"],
 ]
 

@@ -36,7 +36,7 @@ def test_registered_and_made_through_gymnasium_make_with_both_render_modes():
 
 def test_centralized_control_of_the_reference_reproduces_run():
     """The joint action of the Centralized reference, fed through the env, gives agspec run's metrics."""
-    env = agym.make_env("coalition-easy", index=1000)
+    env = agym.make_env("coalition-easy", index=1000, capacity=True)  # A-PZ-CAPACITY
     seed = env.par.instance["seeds"]["execution"]
     env.reset(seed=seed)
     ctl = make_controller("centralized")

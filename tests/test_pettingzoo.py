@@ -148,8 +148,9 @@ def test_operation_slots_carry_support_members_and_own_pending_support():
 
 @pytest.mark.parametrize("scenario,controller", [("coalition-medium", "greedy"), ("concurrency-easy", "parallel-aware")])
 def test_the_adapter_does_not_change_the_dynamics(scenario, controller):
-    """A reference controller driven through the env gives exactly the metrics of agspec run."""
-    env = parallel_env(scenario, index=1000)
+    """A reference controller driven through the env gives exactly the metrics of agspec run
+    (with ``capacity=True``, A-PZ-CAPACITY: the M-CAPACITY samples an evaluation reports)."""
+    env = parallel_env(scenario, index=1000, capacity=True)
     env.reset(seed=env.instance["seeds"]["execution"])
     ctl = make_controller(controller)
     ctl.reset(env.instance["seeds"]["execution"])
@@ -160,6 +161,35 @@ def test_the_adapter_does_not_change_the_dynamics(scenario, controller):
     expected = run_episode(env.instance, controller).metrics
     assert env.final_metrics() == expected
     assert delivered == expected["delivered"] > 0
+
+
+def test_capacity_is_computed_only_when_asked_for(monkeypatch):
+    """A-PZ-CAPACITY: a plain env never solves M-CAPACITY; its other measures are agspec run's and the
+    measures of the samples it did not take are null; ``capacity=True`` takes them."""
+    import agspec.interp.tick as tick
+    from agspec.interp.metrics import CAPACITY_MEASURES
+
+    calls = []
+    real = tick.capacity_snapshot
+    monkeypatch.setattr(tick, "capacity_snapshot", lambda *a, **k: calls.append(1) or real(*a, **k))
+    env = parallel_env("coalition-medium", index=1000)
+    env.reset(seed=env.instance["seeds"]["execution"])
+    ctl = make_controller("greedy")
+    ctl.reset(env.instance["seeds"]["execution"])
+    while env.agents:
+        env.step(ctl.act(env.sim.observe()))
+    assert calls == []
+    expected = run_episode(env.instance, "greedy").metrics
+    got = env.final_metrics()
+    assert set(got) == set(expected) and expected["capacity_mean"] > 0
+    assert {k: v for k, v in got.items() if k not in CAPACITY_MEASURES} == \
+        {k: v for k, v in expected.items() if k not in CAPACITY_MEASURES}
+    assert all(got[k] is None for k in CAPACITY_MEASURES)
+    asked = parallel_env("coalition-medium", index=1000, capacity=True)
+    asked.reset(seed=0)
+    calls.clear()
+    asked.step({})
+    assert len(calls) == 1
 
 
 def _stream_digest(scenario: str, seed: int, steps: int) -> str:

@@ -226,7 +226,7 @@ def test_policy_numbers_equal_an_independent_pettingzoo_loop(campaign):
     namespace: dict = {}
     exec(compile(CONTRACT_POLICY, "contract_policy", "exec"), namespace)
     for k in range(3):
-        env = parallel_env(SCENARIO, index=k)
+        env = parallel_env(SCENARIO, index=k, capacity=True)  # A-PZ-CAPACITY: what an evaluation reports
         obs, infos = env.reset(seed=env.instance["seeds"]["execution"])
         policy = namespace["make_policy"](env)
         while env.agents:

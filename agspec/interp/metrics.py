@@ -108,6 +108,11 @@ def capacity_snapshot(state: State, model: Model, candidates: list[Candidate],
     )
 
 
+# A-PZ-CAPACITY: the measures computed from step 1's M-CAPACITY and M-RF-BR samples
+CAPACITY_MEASURES = ("ready_feasible_fraction", "blocked_ready_rate", "blocked_ready_rate_material", "capacity_mean",
+                     "utilization", "utilization_approx", "utilization_samples", "capacity_exact_fraction")
+
+
 def percentile(values: list[float], q: float) -> float:
     """Element at index round(q (n-1)) of the sorted values (half-to-even), 0.0 when empty."""
     if not values:
@@ -120,8 +125,9 @@ def percentile(values: list[float], q: float) -> float:
 class MetricsAccumulator:
     """Collects per-epoch samples; :meth:`final` turns them into the metrics of chapter 07."""
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model, capacity: bool = True):
         self.model = model
+        self.capacity = capacity  # A-PZ-CAPACITY: whether step 1's M-CAPACITY / M-RF-BR samples are taken
         self.samples = 0
         self.k_star_sum = 0
         self.k_realized_sum = 0
@@ -185,7 +191,7 @@ class MetricsAccumulator:
         mean_part = sum(parts) / len(parts)
         cv = (math.sqrt(sum((p - mean_part) ** 2 for p in parts) / len(parts)) / mean_part) if mean_part > 0 else 0.0
         batch_done = model.mode == "batch" and delivered >= (model.batch_size or 0) and released >= (model.batch_size or 0)
-        return {
+        out = {
             # outcome measures
             "delivered": delivered,
             "released": released,
@@ -250,3 +256,6 @@ class MetricsAccumulator:
             "lost_releases_raw_material": int(c.get("lost_releases_raw_material", 0)),
             "ticks": state.t,
         }
+        if not self.capacity:  # A-PZ-CAPACITY: measures of samples never taken are null, never zero
+            out.update(dict.fromkeys(CAPACITY_MEASURES))
+        return out

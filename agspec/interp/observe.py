@@ -109,9 +109,12 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
         frac = support_fraction(state, model, cand)
         for m in cand.members:
             per_robot.setdefault(m, []).append((frac, cand.cid, cand))
-    out = {}
+    # most robots, most epochs, have no option: they share NO_OPTIONS (Options are immutable)
+    out = dict.fromkeys(model.cells, NO_OPTIONS)
     pickable = pickable_tokens(state, model)
-    for cell in model.cells:
+    # only input-column robots can pick (O-PICK-OPTIONS); pick_options says so too
+    pickers = [c for c in model.cells if c[1] == 0] if pickable else []
+    for cell in sorted({*per_robot, *pickers}):
         ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1])) if cell in per_robot else []
         picks = pick_options(state, model, cell, pickable) if pickable else []
         if len(ops) > OP_SLOTS or len(picks) > PICK_SLOTS:
@@ -122,8 +125,6 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
         if ops or picks:
             out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
                                 supports=tuple(f for f, _, _ in ops))
-        else:
-            out[cell] = NO_OPTIONS  # most robots, most epochs (Options are immutable, so one serves all)
     return out
 
 
@@ -172,19 +173,34 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mas
     return tuple(mask)
 
 
-def decode(action: int, options: Options) -> tuple[str, Any]:
-    """O-ACTION-ENCODING: integer action -> (kind, argument)."""
+def _kind(action: int) -> tuple[str, int | None]:
+    """O-ACTION-ENCODING: the kind of an integer action and its slot or direction."""
     if action == IDLE:
         return ("idle", None)
     if action == DELIVER:
         return ("deliver", None)
     if PICK0 <= action < PICK0 + PICK_SLOTS:
-        return ("pick", options.picks[action - PICK0])
+        return ("pick", action - PICK0)
     if HANDOFF0 <= action < HANDOFF0 + 8:
         return ("handoff", action - HANDOFF0)
     if RECEIVE0 <= action < RECEIVE0 + 8:
         return ("receive", action - RECEIVE0)
-    return ("support", options.operations[action - OP0])
+    return ("support", action - OP0)
+
+
+_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))  # one entry per action integer, looked up by decode
+
+
+def decode(action: int, options: Options) -> tuple[str, Any]:
+    """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
+    the direction of a handoff or receive."""
+    entry = _KINDS[action]
+    kind = entry[0]
+    if kind == "pick":
+        return (kind, options.picks[entry[1]])
+    if kind == "support":
+        return (kind, options.operations[entry[1]])
+    return entry
 
 
 def _held(state: State, model: Model, cell: Cell) -> dict[str, Any] | None:

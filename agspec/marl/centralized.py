@@ -30,7 +30,8 @@ class CentralizedEnv(gym.Env):
     def __init__(self, scenario: str | Path | Mapping[str, Any] = "coalition-easy", index: int | None = None, *,
                  split: str | None = None, seed: int | None = None, stage: int = 0,
                  realization_steps: int | None = None, reward: str = "sparse-delivery-v1",
-                 render_mode: str | None = None, max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
+                 render_mode: str | None = None, max_cycles: int | None = None, capacity: bool = False,
+                 search_paths: tuple[str, ...] = ()):
         if reward not in REWARDS:
             raise AdapterError(f"reward must be one of {REWARDS}, got {reward!r}")
         self.reward_name = reward
@@ -38,7 +39,7 @@ class CentralizedEnv(gym.Env):
         # A-PZ-SPLIT: the split options cycle the instances of the underlying parallel environment
         self.par = AssemblyGridParallelEnv(scenario, index, split=split, seed=seed, stage=stage,
                                            realization_steps=realization_steps, render_mode=render_mode,
-                                           max_cycles=max_cycles, search_paths=search_paths)
+                                           max_cycles=max_cycles, capacity=capacity, search_paths=search_paths)
         n = len(self.par.possible_agents)
         self.robots = list(self.par.possible_agents)
         self.observation_space = spaces.Dict({
@@ -53,9 +54,10 @@ class CentralizedEnv(gym.Env):
         return self.par.sim
 
     def _stack(self, per_agent: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
+        # A-PZ-ARRAYS: the parallel env's arrays are every robot's rows in this env's (row-major) order
         return {
-            "observation": np.stack([per_agent[a]["observation"] for a in self.robots]),
-            "action_mask": np.stack([per_agent[a]["action_mask"] for a in self.robots]),
+            "observation": self.par.observation_array,
+            "action_mask": self.par.action_mask_array,
             "state": self.par.state(),
         }
 

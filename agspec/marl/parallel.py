@@ -134,12 +134,13 @@ class AssemblyGridParallelEnv(ParallelEnv):
     def __init__(self, scenario: str | Path | Mapping[str, Any], index: int | None = None, *,
                  split: str | None = None, seed: int | None = None, stage: int = 0,
                  realization_steps: int | None = None, render_mode: str | None = None,
-                 max_cycles: int | None = None, search_paths: tuple[str, ...] = ()):
+                 max_cycles: int | None = None, capacity: bool = False, search_paths: tuple[str, ...] = ()):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise AdapterError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self._scenario, self._search_paths = scenario, search_paths
         self.render_mode = render_mode
         self.max_cycles = max_cycles
+        self.capacity = bool(capacity)  # A-PZ-CAPACITY: M-CAPACITY sampled only when asked for
         self.curriculum = make_curriculum(scenario, index, split, seed, stage, realization_steps, search_paths)
         self.position: int | None = None  # the curriculum item now played (None: not a split env, or an option)
         self.total_steps = 0  # env steps over the environment's life (the clock of realization_steps)
@@ -152,7 +153,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
 
     def _set_instance(self, instance: dict[str, Any]) -> None:
         self.instance = instance
-        self.sim = Simulator(instance)
+        self.sim = Simulator(instance, capacity=self.capacity)
         self.public = PublicInfo.of(self.sim.model)
         self._encoder = BatchEncoder(self.sim.model, self.public)
         agents = self.sim.agents()
@@ -205,6 +206,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
             for k, agent in enumerate(self.possible_agents):
                 self.action_space(agent).seed(int(seed) + k)
         self.sim.reset(seed)
+        self._encoder.reset()
         self.agents = list(self.possible_agents)
         self.last_events = list(self.sim.reset_events)
         self._cycles = 0
@@ -212,10 +214,18 @@ class AssemblyGridParallelEnv(ParallelEnv):
         return obs, {a: {"action_mask": obs[a]["action_mask"]} for a in self.agents}
 
     def _observations(self) -> dict[str, dict[str, np.ndarray]]:
-        # A-OBS-VECTOR of every agent in one pass (the same bytes as encode_observation of sim.observe())
+        # A-OBS-VECTOR and O-MASK of every agent into two arrays (the same bytes as encode_observation of
+        # sim.observe()); each agent's entries are row views of them (A-PZ-ARRAYS)
         decision = self.sim.decision
-        vectors, masks = self._encoder.encode(self.sim.state, decision.options, decision.masks)
-        return {robot: {"observation": vectors[k], "action_mask": masks[k]} for k, robot in enumerate(self.possible_agents)}
+        self.observation_array, self.action_mask_array = self._encoder.encode(
+            self.sim.state, decision.options, decision.masks)
+        return {robot: {"observation": vector, "action_mask": mask}
+                for robot, vector, mask in zip(self.possible_agents, self.observation_array, self.action_mask_array)}
+
+    @property
+    def supporting_before(self) -> dict[str, bool]:
+        """Which robots held a pending support before the last step (the c_sup input of A-REWARD-MILESTONE)."""
+        return {agent: s is not None for agent, s in zip(self.possible_agents, self._supports_before)}
 
     def supporting(self) -> dict[str, bool]:
         """Which robots hold a pending support now (the c_sup input of A-REWARD-MILESTONE)."""
@@ -239,7 +249,8 @@ class AssemblyGridParallelEnv(ParallelEnv):
                 joint[agent] = int(np.asarray(value).item())
             except (TypeError, ValueError):
                 raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
-        self.supporting_before = self.supporting()
+        # the encoder read every robot's pending support at the last epoch: the state this step starts from
+        self._supports_before = self._encoder.supports
         result = self.sim.step(joint)
         self.last_events = result.events
         self._cycles += 1
@@ -249,9 +260,9 @@ class AssemblyGridParallelEnv(ParallelEnv):
                                          and not result.terminated)
         agents = self.agents
         obs = self._observations()
-        rewards = {a: team for a in agents}
-        terms = {a: bool(result.terminated) for a in agents}
-        truncs = {a: bool(truncated) for a in agents}
+        rewards = dict.fromkeys(agents, team)
+        terms = dict.fromkeys(agents, bool(result.terminated))
+        truncs = dict.fromkeys(agents, bool(truncated))
         infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": result.applied[a]} for a in agents}
         if result.terminated or truncated:
             self.agents = []
@@ -274,7 +285,9 @@ class AssemblyGridParallelEnv(ParallelEnv):
         pass
 
     def final_metrics(self) -> dict[str, Any]:
-        """The benchmark measures of the episode so far (chapter 7): what evaluation reports."""
+        """The benchmark measures of the episode so far (chapter 7): what evaluation reports when the
+        environment was made with ``capacity=True``; without it the M-CAPACITY and M-RF-BR measures
+        are null (A-PZ-CAPACITY)."""
         return self.sim.final_metrics()
 
 

@@ -122,7 +122,7 @@ class PettingZooSession:
             raise PolicyError("setup", f"in-process policies need the PettingZoo adapter: pip install 'agspec[marl]' "
                                        f"({exc})") from None
         self.guard = guard or alarm_guard(load_timeout, timeout)
-        self.env = parallel_env(instance)
+        self.env = parallel_env(instance, capacity=True)  # A-PZ-CAPACITY: evaluation reports M-CAPACITY
         self.sim = self.env.sim
         self.name, self.information = spec.label, "local"
         self.observations = None

@@ -51,8 +51,8 @@ class TeamEnv(gym.Env):
         self.action_space = spaces.MultiDiscrete([N_ACTIONS] * n)
 
     def _observe(self, per_agent: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
-        out = {"obs": np.stack([per_agent[a]["observation"] for a in self.agents]),
-               "mask": np.stack([per_agent[a]["action_mask"] for a in self.agents])}
+        # A-PZ-ARRAYS: the env's arrays hold every agent's rows in possible_agents order (self.agents)
+        out = {"obs": self.par.observation_array, "mask": self.par.action_mask_array}
         if self.with_state:
             out["state"] = self.par.state()
         return out
