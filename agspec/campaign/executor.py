@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from multiprocessing.util import Finalize
 from typing import Any, Callable, Iterator, Protocol, Sequence
 
+from agspec.formats.output import OutputError
+
 EXECUTORS = ("local", "ray")
 DEFAULT_RETRIES = 2
 
@@ -135,6 +137,8 @@ class InlineBackend:
     def submit(self, index: int, item: Any) -> None:
         try:
             self.done.append(Event(index, "ok", self.task.fn(self.context, item)))
+        except OutputError:  # F-OUTPUT-FAILURES: a result that cannot be written ends the run, not the item
+            raise
         except Exception as exc:  # the task's own failure: deterministic, reported, never retried
             self.done.append(Event(index, "raised", describe(exc)))
 
@@ -166,6 +170,8 @@ def _run_in_pool_worker(item: Any) -> tuple[str, Any]:
         return "raised", _CONTEXT["setup_error"]
     try:
         return "ok", _CONTEXT["task"].fn(_CONTEXT["context"], item)
+    except OutputError as exc:  # F-OUTPUT-FAILURES: raised again in the driver
+        return "output", (exc.path, exc.reason)
     except Exception as exc:
         return "raised", describe(exc)
 
@@ -203,6 +209,8 @@ class PoolBackend:
             index = self.inflight.pop(fut)
             try:
                 kind, payload = fut.result()
+                if kind == "output":
+                    raise OutputError(*payload)
                 events.append(Event(index, kind, payload))
             except BrokenExecutor as exc:
                 broken.append((index, exc))

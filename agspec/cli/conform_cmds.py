@@ -15,6 +15,7 @@ from agspec.campaign.executor import ExecutorSpec
 from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
+from agspec.formats.output import make_dir
 
 
 # =============================================================================================== conform
@@ -101,6 +102,8 @@ def conform(impl_spec: str | None, timeout: float, keyword: str | None, exitfirs
     from agspec.conform.golden import cache_dir
 
     golden_dir = cache_dir(golden_cache)
+    if golden_dir is not None:
+        make_dir(golden_dir)  # F-OUTPUT-FAILURES: an unusable cache is found before the items run
     summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=repro_dir, tolerance=float_tolerance, options_record=options_record, fmt=fmt,

@@ -24,6 +24,7 @@ from typing import Any, Mapping, Sequence
 from agspec import __version__
 from agspec.conform.eventdiff import describe_row, differing, event_diff, event_summary, render_event_diff
 from agspec.formats import limits
+from agspec.formats import output
 from agspec.formats.actions import describe as describe_action
 from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
 from agspec.formats.schemas import self_check
@@ -352,14 +353,11 @@ def history_record(requests: Sequence[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    directory = output.make_dir(directory)  # F-OUTPUT-FAILURES: written whole or not at all
     self_check("repro", data)  # F-SCHEMAS-SELF
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
-    path = directory / f"{safe}.repro.json"
-    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",
-                    encoding="utf-8")
-    return path
+    return output.write_text(directory / f"{safe}.repro.json",
+                             json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n")
 
 
 class ReproError(ValueError):

@@ -55,8 +55,8 @@ def legend_label(rows: Sequence[Row]) -> str:
 
 
 def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Path, with_published: bool = True,
-         planned: Planned | None = None, instances: str = "final-test instances") -> Path:
-    """Render the figure to ``path`` (format from its suffix: .svg, .png or .pdf)."""
+         planned: Planned | None = None, instances: str = "final-test instances", fmt: str | None = None) -> Path:
+    """Render the figure to ``path`` (format ``fmt``, else from its suffix: .svg, .png or .pdf)."""
     plt = _pyplot()
     data = series(episodes, labels, with_published, planned)
     fig, axes = plt.subplots(2, 3, figsize=(11, 5.6), sharey="row", constrained_layout=True)
@@ -93,6 +93,6 @@ def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Pat
                fontsize="small")
     fig.suptitle(f"Decentralized reference behavior across workload families\n{instances}; 95 % intervals over "
                  "instances (published rows: over training seeds)", fontsize="medium")
-    fig.savefig(path, format=path.suffix.lstrip(".").lower())
+    fig.savefig(path, format=fmt or path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path

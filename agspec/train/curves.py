@@ -54,7 +54,7 @@ def band(runs: Sequence[Mapping[str, Any]], key: str) -> tuple[np.ndarray, np.nd
             np.array([np.percentile(v, 75) for v in vals]))
 
 
-def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
+def draw(runs: Sequence[Mapping[str, Any]], path: Path, fmt: str | None = None) -> Path:
     """One row of panels per scenario; one line (median) and band (IQR) per method."""
     plt = _pyplot()
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
@@ -94,6 +94,6 @@ def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
         fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncols=min(len(handles), 3),
                    frameon=False, fontsize=8)
     fig.suptitle("Training curves: median and inter-quartile range over seeds", fontsize=9)
-    fig.savefig(path, format=path.suffix.lstrip(".").lower())
+    fig.savefig(path, format=fmt or path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path
