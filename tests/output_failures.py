@@ -84,6 +84,8 @@ OUTPUTS: tuple[Output, ...] = (
        "-o", "{out}", kind="stream"),
     # directories
     _o("conform --repro-dir", *CONFORM, "--impl", FAKE, "--repro-dir", "{out}", kind="dir", rc=1),
+    _o("conform -j 2 --repro-dir", *CONFORM, "-j", "2", "--impl", FAKE, "--repro-dir", "{out}", kind="dir", rc=1,
+       targets=("under-file", "fsize")),  # the reproducer is written in a worker process
     _o("conform --golden-cache", *CONFORM, "--impl", "reference", "--golden-cache", "{out}", kind="dir"),
     _o("diff -o", "diff", "--impl", "reference", "--impl", FAKE, "--scenario", "flow-easy", "--indices", "0-0",
        "--horizon", "5", "--controller", "greedy", "--small", "0", "--shrink-budget", "0", "-o", "{out}",
@@ -286,11 +288,11 @@ def run_case(output: Output, target: str, base: Path, inputs: dict[str, str]) ->
                     json.loads(file.read_text(encoding="utf-8"))
                 except ValueError:
                     problems.append(f"{file} is left half-written")
-            if file.name.startswith(".") and ".tmp" in file.name:
+            if ".tmp" in file.name:
                 problems.append(f"temporary file left: {file}")
     parent = path.parent if path.parent.is_dir() else None
     if parent is not None and str(parent).startswith(str(base)):
-        left = [p.name for p in parent.iterdir() if p.name.startswith(".") and ".tmp" in p.name]
+        left = [p.name for p in parent.iterdir() if ".tmp" in p.name]
         if left:
             problems.append(f"temporary files left: {left}")
     return Outcome(output, target, str(path), proc.returncode, err, problems)

@@ -70,9 +70,11 @@ def _remove(tmp: str | None) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, stable: bool = False) -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix) to write to; moved over ``path`` when the block
-    ends normally, removed otherwise. An OSError inside the block or in the move is an OutputError."""
+    ends normally, removed otherwise. An OSError inside the block or in the move is an OutputError.
+    ``stable``: the temporary name is ``NAME.tmp``, for writers whose bytes depend on the file name
+    (torch.save names its archive after it, and a policy file's digest must not vary)."""
     path = Path(path)
     if path.is_dir():
         raise OutputError(path, OSError(errno.EISDIR, os.strerror(errno.EISDIR)))
@@ -84,8 +86,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         return
     tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
-        os.close(fd)
+        if stable:
+            tmp = str(path.with_name(path.name + ".tmp"))
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600))
+        else:
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=f".tmp{path.suffix}")
+            os.close(fd)
         yield Path(tmp)
         os.chmod(tmp, _MODE)
         os.replace(tmp, path)

@@ -24,7 +24,7 @@ class CheckpointError(ValueError):
 
 
 def _save(data: Mapping[str, Any], path: Path) -> None:
-    with output.atomic_path(path) as tmp:  # F-OUTPUT-FAILURES
+    with output.atomic_path(path, stable=True) as tmp:  # F-OUTPUT-FAILURES; the archive's name as before
         torch.save(dict(data), tmp)
 
 
