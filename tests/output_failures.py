@@ -55,14 +55,15 @@ class Output:
     suffix: str = ".json"
     rc: int = 0
     targets: tuple[str, ...] | None = None  # default: all of the kind's
+    fsize: int = FSIZE  # bytes a file may grow to under the `fsize` target
 
     def target_names(self) -> tuple[str, ...]:
         return self.targets or (STDOUT_TARGETS if self.kind == "stdout" else FILE_TARGETS)
 
 
 def _o(name: str, *argv: str, kind: str = "file", suffix: str = ".json", rc: int = 0,
-       targets: tuple[str, ...] | None = None) -> Output:
-    return Output(name, tuple(argv), kind, suffix, rc, targets)
+       targets: tuple[str, ...] | None = None, fsize: int = FSIZE) -> Output:
+    return Output(name, tuple(argv), kind, suffix, rc, targets, fsize)
 
 
 OUTPUTS: tuple[Output, ...] = (
@@ -85,7 +86,8 @@ OUTPUTS: tuple[Output, ...] = (
     # directories
     _o("conform --repro-dir", *CONFORM, "--impl", FAKE, "--repro-dir", "{out}", kind="dir", rc=1),
     _o("conform -j 2 --repro-dir", *CONFORM, "-j", "2", "--impl", FAKE, "--repro-dir", "{out}", kind="dir", rc=1,
-       targets=("under-file", "fsize")),  # the reproducer is written in a worker process
+       targets=("under-file", "fsize"), fsize=2000),  # the reproducer is written in a worker process (the
+    #                                                  workers' own marker files stay under 2000 bytes)
     _o("conform --golden-cache", *CONFORM, "--impl", "reference", "--golden-cache", "{out}", kind="dir"),
     _o("diff -o", "diff", "--impl", "reference", "--impl", FAKE, "--scenario", "flow-easy", "--indices", "0-0",
        "--horizon", "5", "--controller", "greedy", "--small", "0", "--shrink-budget", "0", "-o", "{out}",
@@ -229,7 +231,7 @@ def run_case(output: Output, target: str, base: Path, inputs: dict[str, str]) ->
     if target == "fsize":
         def preexec() -> None:
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-            resource.setrlimit(resource.RLIMIT_FSIZE, (FSIZE, FSIZE))
+            resource.setrlimit(resource.RLIMIT_FSIZE, (output.fsize, output.fsize))
     elif target == "stdout-full":
         stdout = open("/dev/full", "w")
     elif target == "stdout-closed":

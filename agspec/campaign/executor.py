@@ -209,13 +209,14 @@ class PoolBackend:
             index = self.inflight.pop(fut)
             try:
                 kind, payload = fut.result()
-                if kind == "output":
-                    raise OutputError(*payload)
-                events.append(Event(index, kind, payload))
             except BrokenExecutor as exc:
                 broken.append((index, exc))
+                continue
             except Exception as exc:  # the result could not be sent back (e.g. not picklable)
-                events.append(Event(index, "raised", describe(exc)))
+                kind, payload = "raised", describe(exc)
+            if kind == "output":  # F-OUTPUT-FAILURES: a worker could not write a result
+                raise OutputError(*payload)
+            events.append(Event(index, kind, payload))
         if broken:
             # every item in flight fails with the pool: only a lone one is proven to have killed it
             for fut, index in self.inflight.items():
