@@ -37,6 +37,9 @@ FAKE = f"{sys.executable} {ROOT / 'tests' / 'fakes' / 'fake_sim.py'} mutate"
 FLOW = str(ROOT / "catalogue" / "scenarios" / "flow-easy.ag")
 FSIZE = 100
 TIMEOUT = 60  # seconds a row may run (every row's inputs are tiny)
+# a recipe `fmt --write` rewrites: the shipped one with a space too many
+NON_CANONICAL = (ROOT / "catalogue" / "recipes" / "solo_inspection.ag").read_text(encoding="utf-8").replace(
+    "\nrecipe ", "\nrecipe  ", 1)
 CONFORM = ["conform", "--no-suite", "--episodes", "1", "--horizon", "5", "-k", "flow-easy"]
 
 FILE_TARGETS = ("full", "under-file", "missing-dir", "unwritable", "fsize")
@@ -56,14 +59,15 @@ class Output:
     rc: int = 0
     targets: tuple[str, ...] | None = None  # default: all of the kind's
     fsize: int = FSIZE  # bytes a file may grow to under the `fsize` target
+    rewrites: bool = False  # the output is its own input, rewritten (`fmt --write`): placed first, kept intact
 
     def target_names(self) -> tuple[str, ...]:
         return self.targets or (STDOUT_TARGETS if self.kind == "stdout" else FILE_TARGETS)
 
 
 def _o(name: str, *argv: str, kind: str = "file", suffix: str = ".json", rc: int = 0,
-       targets: tuple[str, ...] | None = None, fsize: int = FSIZE) -> Output:
-    return Output(name, tuple(argv), kind, suffix, rc, targets, fsize)
+       targets: tuple[str, ...] | None = None, fsize: int = FSIZE, rewrites: bool = False) -> Output:
+    return Output(name, tuple(argv), kind, suffix, rc, targets, fsize, rewrites)
 
 
 OUTPUTS: tuple[Output, ...] = (
@@ -75,6 +79,8 @@ OUTPUTS: tuple[Output, ...] = (
     _o("render -o", "render", "{trace}", "-o", "{out}", suffix=".html"),
     _o("report --to markdown -o", "report", "{bundle}", "--to", "markdown", "-o", "{out}", suffix=".md"),
     _o("report --to svg -o", "report", "{bundle}", "--to", "svg", "-o", "{out}", suffix=".svg"),
+    # a file rewritten in place: only the targets an existing input can be in
+    _o("fmt --write", "fmt", "--write", "{out}", suffix=".ag", targets=("unwritable", "fsize"), rewrites=True),
     # streams
     _o("run --trace", "run", "flow-easy", "--horizon", "5", "--trace", "{out}", kind="stream", suffix=".jsonl"),
     _o("render --impl --trace", "render", "--impl", "reference", "--scenario", "flow-easy", "--horizon", "5",
@@ -218,11 +224,16 @@ def run_case(output: Output, target: str, base: Path, inputs: dict[str, str]) ->
         expect_fail = output.kind != "dir"  # a directory output creates its parents
     elif target == "unwritable":
         locked = work / "locked"
+        locked.mkdir()
+        if output.rewrites:
+            (locked / name).write_text(NON_CANONICAL, encoding="utf-8")
         if not _immutable(locked):
             return Outcome(output, target, str(locked), -1, "", ["skip: chattr +i is not available"])
         path = locked / name
     else:
         path = work / name
+        if output.rewrites:
+            path.write_text(NON_CANONICAL, encoding="utf-8")
     stdout_target = output.kind == "stdout"
     argv = [a.format(out=path, tmp=work, **inputs) for a in output.argv]
     pipe_r = pipe_w = None
@@ -281,7 +292,10 @@ def run_case(output: Output, target: str, base: Path, inputs: dict[str, str]) ->
             problems.append(f"the error gives no reason: {errors[0]!r}")
     if "Traceback" in err:
         problems.append("traceback: " + err[err.index("Traceback"):][-300:].replace("\n", " | "))
-    if expect_fail and not stdout_target and path != Path("/dev/full") and _complete(path, output):
+    if output.rewrites:
+        if path.read_text(encoding="utf-8") != NON_CANONICAL:
+            problems.append(f"{path}, the input, was changed")
+    elif expect_fail and not stdout_target and path != Path("/dev/full") and _complete(path, output):
         problems.append(f"{path} is left looking complete")
     if expect_fail and output.kind == "dir" and path.is_dir():
         for file in path.rglob("*"):
