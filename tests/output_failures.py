@@ -120,6 +120,11 @@ OUTPUTS: tuple[Output, ...] = (
     _o("check --format json", "check", "{trace}", "{trace}", "--format", "json", kind="stdout"),
     _o("trace validate", "trace", "validate", "{trace}", kind="stdout"),
     _o("report --to markdown", "report", "{bundle}", "--to", "markdown", kind="stdout"),
+    _o("diff --format json", "diff", "--impl", "reference", "--impl", "reference", "--scenario", "flow-easy",
+       "--indices", "0-0", "--horizon", "5", "--controller", "greedy", "--small", "0", "--format", "json",
+       kind="stdout"),
+    _o("train --print-config", "train", "--algorithm", "ippo", "--scenario", "flow-easy", "--seed", "0",
+       "--print-config", "-o", "{tmp}/run", kind="stdout"),
 )
 
 

@@ -76,6 +76,8 @@ def atomic_path(path: str | Path, stable: bool = False) -> Iterator[Path]:
     ``stable``: the temporary name is ``NAME.tmp``, for writers whose bytes depend on the file name
     (torch.save names its archive after it, and a policy file's digest must not vary)."""
     path = Path(path)
+    if path.is_symlink():  # the link's target is replaced, the link stays
+        path = Path(os.path.realpath(path))
     if path.is_dir():
         raise OutputError(path, OSError(errno.EISDIR, os.strerror(errno.EISDIR)))
     if _in_place(path):
