@@ -14,6 +14,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from agspec import IR_VERSION
 from agspec.formats import limits
+from agspec.formats import output
 from agspec.formats.schemas import self_check
 from agspec.interop.original import ExportError, instance_definition, instance_sha256
 from agspec.ir.fingerprint import fingerprint
@@ -320,5 +321,5 @@ def read_lock(path: Path | None = None) -> dict[str, Any]:
 def write_lock(lock: Mapping[str, Any], path: Path | None = None) -> Path:
     path = path or lock_path()
     self_check("catalogue-lock", lock)  # F-SCHEMAS-SELF
-    path.write_text(lock_text(lock), encoding="utf-8")
+    output.write_text(path, lock_text(lock))  # F-OUTPUT-FAILURES
     return path

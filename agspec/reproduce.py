@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 from agspec.campaign.executor import ExecutorSpec
 from agspec.evaluate import evaluate
+from agspec.formats import output
 from agspec.formats.schemas import self_check
 from agspec.policy.stats import mean_ci
 
@@ -290,10 +291,10 @@ def run_paper(workers: int = 1, out_dir: Path | None = None, plan: list | None =
         raise EpisodeFailures(errors)
     report = build_report(runs)
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        output.make_dir(out_dir)  # F-OUTPUT-FAILURES
         self_check("reproduction", report)  # F-SCHEMAS-SELF
-        (out_dir / "reproduction.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-        (out_dir / "reproduction.md").write_text(render_markdown(report), encoding="utf-8")
+        output.write_text(out_dir / "reproduction.json", json.dumps(report, indent=2) + "\n")
+        output.write_text(out_dir / "reproduction.md", render_markdown(report))
     return report
 
 

@@ -36,6 +36,7 @@ from agspec.campaign.task import (
     ExecutorSpec,
     Failed,
     Outcome,
+    RunFatal,
     Task,
     describe,
 )
@@ -60,6 +61,8 @@ class InlineBackend:
     def submit(self, index: int, item: Any) -> None:
         try:
             self.done.append(Event(index, "ok", self.task.fn(self.context, item)))
+        except RunFatal:  # a result that cannot be written (F-OUTPUT-FAILURES) ends the run, not the item
+            raise
         except Exception as exc:  # the task's own failure: deterministic, reported, never retried
             self.done.append(Event(index, "raised", describe(exc)))
 
@@ -91,6 +94,8 @@ def _run_in_pool_worker(item: Any) -> tuple[str, Any]:
         return "raised", _CONTEXT["setup_error"]
     try:
         return "ok", _CONTEXT["task"].fn(_CONTEXT["context"], item)
+    except RunFatal as exc:  # raised again in the driver (F-OUTPUT-FAILURES)
+        return "fatal", exc
     except Exception as exc:
         return "raised", describe(exc)
 
@@ -128,11 +133,14 @@ class PoolBackend:
             index = self.inflight.pop(fut)
             try:
                 kind, payload = fut.result()
-                events.append(Event(index, kind, payload))
             except BrokenExecutor as exc:
                 broken.append((index, exc))
+                continue
             except Exception as exc:  # the result could not be sent back (e.g. not picklable)
-                events.append(Event(index, "raised", describe(exc)))
+                kind, payload = "raised", describe(exc)
+            if kind == "fatal":  # e.g. a worker could not write a result (F-OUTPUT-FAILURES)
+                raise payload
+            events.append(Event(index, kind, payload))
         if broken:
             # every item in flight fails with the pool: only a lone one is proven to have killed it
             for fut, index in self.inflight.items():

@@ -70,6 +70,13 @@ class Failed:
 Outcome = Done | Failed
 
 
+class RunFatal(Exception):
+    """An exception that ends the whole run instead of failing its item (CAMP-FAULTS): the run cannot go on
+    whichever item comes next (e.g. a result that cannot be written, F-OUTPUT-FAILURES).  It is raised
+    again in the driver, also from a pool worker, so it must pickle (a subclass with its own ``__init__``
+    defines ``__reduce__``)."""
+
+
 class ExecutorError(Exception):
     """The executor could not start (Ray missing or unreachable): a usage/I-O problem of the run."""
 

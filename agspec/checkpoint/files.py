@@ -8,11 +8,12 @@ evaluation runs, with what identifies it; both are written through a temporary f
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any, Mapping
 
 import torch
+
+from agspec.formats import output
 
 CHECKPOINT_SCHEMA = "agspec-training-checkpoint/1"
 POLICY_SCHEMA = "agspec-policy-checkpoint/1"
@@ -23,9 +24,8 @@ class CheckpointError(ValueError):
 
 
 def _save(data: Mapping[str, Any], path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    torch.save(dict(data), tmp)
-    os.replace(tmp, path)
+    with output.atomic_path(path, stable=True) as tmp:  # F-OUTPUT-FAILURES; the archive's name as before
+        torch.save(dict(data), tmp)
 
 
 def _load(path: Path, schema: str) -> dict[str, Any]:

@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
+from agspec.formats import output
 from agspec.formats.digest import file_sha256
 from agspec.formats.limits import InputError, load_json
 
@@ -39,9 +40,7 @@ class RunDirError(ValueError):
 
 def write_json_atomic(path: Path, data: Any) -> None:
     """Write JSON through a temporary file and a rename, so a cut never leaves half a file."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+    output.write_text(path, json.dumps(data, indent=2, sort_keys=True) + "\n")  # F-OUTPUT-FAILURES
 
 
 def read_json(path: Path) -> Any:
@@ -85,8 +84,12 @@ def refuse_foreign(out_dir: Path) -> None:
 def exclusive(out_dir: Path) -> Iterator[None]:
     """T-RUN-DIR: one process trains into a run directory at a time (an advisory lock on its ``.lock``,
     released when the process ends however it ends)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    with open(out_dir / LOCK, "a") as fh:
+    output.make_dir(out_dir)  # F-OUTPUT-FAILURES: an unusable directory is found before training
+    try:
+        fh = open(out_dir / LOCK, "a")
+    except OSError as exc:
+        raise output.OutputError(out_dir / LOCK, exc) from None
+    with fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -29,6 +29,7 @@ from agspec.campaign.executor import (
     run_ordered,
 )
 from agspec.cli.common import emit_json, fail, stderr, stdout
+from agspec.formats.output import Stream
 from agspec.formats.schemas import self_check
 from agspec.trace.check import EXIT_HARNESS, check_file, exit_code, expand
 
@@ -40,10 +41,7 @@ def check_many_command(targets: Sequence[str], fmt: str, campaign: ExecutorSpec,
     paths = expand(targets)
     if not paths:
         fail(f"no trace files (*.jsonl) in {', '.join(targets)}")
-    try:
-        report = open(report_path, "w", encoding="utf-8") if report_path else None
-    except OSError as exc:
-        fail(f"cannot write the report {report_path}: {exc.strerror or exc}")
+    report = Stream(report_path) if report_path else None  # F-OUTPUT-FAILURES
     records: list[dict[str, Any]] = []
     show = fmt == "table" and sys.stderr.isatty()
     started = time.perf_counter()
@@ -59,20 +57,19 @@ def check_many_command(targets: Sequence[str], fmt: str, campaign: ExecutorSpec,
                 if report is not None:
                     self_check("check-report", {"type": "trace", **record})  # F-SCHEMAS-SELF
                     report.write(json.dumps({"type": "trace", **record}, ensure_ascii=False) + "\n")
-                    report.flush()
     except ExecutorError as exc:
         fail(str(exc))
     finally:
-        if report is not None:
-            report.close()
+        if report is not None and sys.exc_info()[0] is not None:
+            report.abandon()
     seconds = time.perf_counter() - started
     code = exit_code(records)
     counts = {name: sum(1 for r in records if r["exit"] == c) for c, name in COUNTED.items()}
-    if report_path:
+    if report is not None:
         footer = {"type": "footer", "traces": len(records), "counts": counts, "exit_code": code}
         self_check("check-report", footer)  # F-SCHEMAS-SELF
-        with open(report_path, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(footer) + "\n")
+        report.write(json.dumps(footer) + "\n")
+        report.close()
     if fmt == "json":
         # the timing is the one non-deterministic part of the output; the report file carries none
         emit_json({"traces": records, "counts": counts, "exit_code": code,

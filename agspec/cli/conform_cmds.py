@@ -29,6 +29,8 @@ from agspec.cli.grammar import (
     output_option,
     timeout_option,
 )
+from agspec.formats.output import make_dir
+
 
 # =============================================================================================== conform
 
@@ -116,6 +118,8 @@ def conform(impl_spec: str | None, timeout: float, keyword: str | None, exitfirs
     from agspec.conform.golden import cache_dir
 
     golden_dir = cache_dir(golden_cache)
+    if golden_dir is not None:
+        make_dir(golden_dir)  # F-OUTPUT-FAILURES: an unusable cache is found before the items run
     summary = view.execute(selected, impl_spec, impl_timeout=impl_timeout, validate=validate_protocol, campaign=campaign,
                            expectations=expectations, stale=stale, max_fail=max_fail, report_path=report_path,
                            repro_dir=view.repro_dir_of(repro_dir, impl_spec), tolerance=float_tolerance,

@@ -127,11 +127,6 @@ def execute(items: Sequence[Any], impl_spec: str, *, impl_timeout: float, valida
         impl = make_impl(impl_spec, timeout=impl_timeout, validate=validate)
     except ImplSpecError as exc:
         fail(str(exc))
-    if report_path:
-        try:
-            open(report_path, "a", encoding="utf-8").close()
-        except OSError as exc:
-            fail(f"cannot write the report {report_path}: {exc.strerror or exc}")
     opts = Options(tolerance=tolerance, repro_dir=repro_dir, impl_spec=impl_spec, golden_dir=golden_dir)
     show = fmt == "table" and sys.stderr.isatty()
     with Progress(TextColumn("[bold]conform"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"),

@@ -33,6 +33,7 @@ from agspec.cli.common import (
 )
 from agspec.formats.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
+from agspec.formats.output import write_text
 from agspec.load import Document, Resolver, check_document, io_fault, load_document, resolve_argument
 
 SEARCH_PATH_OPTION = click.option(
@@ -174,11 +175,7 @@ def compile_cmd(file: str, pretty: bool, output: Path | None, search_paths: tupl
         sys.stdout.write(text)
         sys.stdout.flush()
     else:
-        try:
-            output.write_text(text, encoding="utf-8")
-        except OSError as exc:
-            stderr.print(Text(f"error: cannot write {output}: {exc.strerror or exc}", style="bold red"))
-            raise SystemExit(EXIT_USAGE)
+        write_text(output, text)  # F-OUTPUT-FAILURES
         stderr.print(Text(f"wrote {output}"))
 
 
@@ -238,11 +235,7 @@ def fmt(file: str, check: bool, write: bool, search_paths: tuple[Path, ...]) -> 
                               style="bold red"))
             raise SystemExit(EXIT_USAGE)
         if text != doc.text:
-            try:
-                Path(file if doc.path is None else doc.path).write_text(text, encoding="utf-8")
-            except OSError as exc:
-                stderr.print(Text(f"error: cannot write {doc.file}: {exc.strerror or exc}", style="bold red"))
-                raise SystemExit(EXIT_USAGE)
+            write_text(Path(file if doc.path is None else doc.path), text)  # F-OUTPUT-FAILURES
             stderr.print(Text(f"formatted {doc.file}"))
         raise SystemExit(EXIT_OK)
     sys.stdout.write(text)

@@ -37,6 +37,7 @@ from agspec.cli.common import (
     stdout,
 )
 from agspec.formats import limits
+from agspec.formats.output import write_text
 from agspec.interop.original import ExportError, instance_definition, instance_sha256, original_instance_id
 from agspec.ir.fingerprint import FingerprintError
 from agspec.ir.fingerprint import fingerprint as ir_fingerprint
@@ -61,10 +62,7 @@ def _json_text(data: Any) -> str:
 
 
 def _write(path: Path, text: str) -> None:
-    try:
-        path.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        _fail(f"cannot write {path}: {exc.strerror or exc}", EXIT_USAGE)
+    write_text(path, text)  # F-OUTPUT-FAILURES
 
 
 def _bundle(name: str) -> tuple[dict, dict, dict]:
@@ -285,10 +283,7 @@ def catalogue_verify(update: bool, lock_file: Path | None, root: Path | None = N
     stderr.print(_which_catalogue(root), markup=False)
     current = _current_lock(root)
     if update:
-        try:
-            write_lock(current, path)
-        except OSError as exc:
-            _fail(f"cannot write {path}: {exc.strerror or exc}", EXIT_USAGE)
+        write_lock(current, path)  # F-OUTPUT-FAILURES
         n = sum(len(s["instances"]) for s in current["scenarios"].values())
         stdout.print(f"wrote {path}: {len(current['scenarios'])} scenarios, {n} realizations", markup=False)
         return

@@ -10,9 +10,10 @@ import click
 from rich.text import Text
 
 from agspec import __version__
-from agspec.cli.common import EXIT_INTERNAL, stderr
+from agspec.cli.common import EXIT_INTERNAL, EXIT_USAGE, stderr
 from agspec.cli.examples import attach
 from agspec.cli.grammar import rewrite
+from agspec.formats.output import OutputError, guard_stdout, silence_stdout
 from agspec.transport import reaper
 from agspec.transport.teardown import exit_on_signals
 
@@ -76,6 +77,17 @@ def cli() -> None:
     """Executable specification and conformance toolkit for AssemblyGrid v1."""
 
 
+def output_failed(exc: OutputError) -> SystemExit:
+    """F-OUTPUT-FAILURES: a result that cannot be written is an I/O error (exit 2) with one located
+    message; standard output read by a closed pipe (``| head -1``) ends the command quietly (exit 0)."""
+    if exc.path == "<stdout>":
+        silence_stdout()
+    if exc.closed_pipe:
+        return SystemExit(0)
+    stderr.print(Text.assemble(("error", "bold red"), ": ", str(exc)))
+    return SystemExit(EXIT_USAGE)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: click handles usage errors (exit 2); anything unexpected is an internal error.
 
@@ -91,10 +103,18 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _main(argv: list[str] | None) -> None:
+    guard_stdout()
     try:
         cli.main(args=argv, prog_name="agspec", standalone_mode=True)
-    except SystemExit:
-        raise
+        sys.stdout.flush()
+    except OutputError as exc:
+        raise output_failed(exc) from None
+    except SystemExit as exc:
+        try:
+            sys.stdout.flush()  # what is still buffered fails here, not at interpreter exit
+        except OutputError as failed:
+            raise output_failed(failed) from None
+        raise exc
     except KeyboardInterrupt:
         stderr.print("interrupted")
         raise SystemExit(130)

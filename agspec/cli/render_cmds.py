@@ -19,6 +19,7 @@ from agspec.cli.common import (
 )
 from agspec.cli.grammar import horizon_option, output_option, timeout_option
 from agspec.controllers import CONTROLLERS
+from agspec.formats.output import write_text
 
 
 @click.command("render")
@@ -85,10 +86,7 @@ def render(trace_path, output, report, case_id, replay, impl, scenario, index, h
         out = out or Path("replay.html")
         summary = f"{doc['T']} ticks, {len(doc['states']['keys'][0]['robots'])} robots" + (
             ", observations" if doc["observations"] else "")
-    try:
-        out.write_text(page, encoding="utf-8")
-    except OSError as exc:
-        fail(f"cannot write {out}: {exc.strerror or exc}", EXIT_USAGE)
+    write_text(out, page)  # F-OUTPUT-FAILURES
     stdout.print(f"wrote {out} ({len(page.encode('utf-8')) / 1e6:.2f} MB; {summary})")
     if impl is not None and report is None and failed:
         raise SystemExit(EXIT_HARNESS)  # the page shows the run up to the failure
@@ -151,10 +149,7 @@ def _record(impl: str, scenario: str | None, index: int, ticks: int, controller:
         fail("--impl needs --scenario (an official scenario name, a scenario .ag file or an instance .json)", EXIT_USAGE)
     instance = load_instance(scenario, index, None)
     path = save or Path(tempfile.mkdtemp(prefix="agspec-render-")) / "trace.jsonl"
-    try:
-        writer = TraceWriter(path)
-    except OSError as exc:
-        fail(f"cannot write trace {path}: {exc.strerror or exc}", EXIT_USAGE)
+    writer = TraceWriter(path)  # F-OUTPUT-FAILURES
     try:
         rec = record(impl, instance, writer, ticks=ticks, controller=controller, observations=observations,
                      timeout=timeout)

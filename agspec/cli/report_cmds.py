@@ -9,6 +9,7 @@ import click
 
 from agspec.cli.common import Choice, EXIT_INVALID, EXIT_USAGE, fail, stdout
 from agspec.cli.run_cmds import METRICS
+from agspec.formats.output import atomic_path, write_text
 
 FORMATS = ("markdown", "latex", "svg", "png", "pdf")
 
@@ -67,11 +68,9 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
             from agspec.policy.figure import draw
 
             target = output or bundles[0].with_suffix("." + to)
-            try:
-                draw(episodes, labels, target, with_published=with_published, planned=planned, instances=instances,
-                     policies=data["policies"])
-            except OSError as exc:
-                fail(f"cannot write {target}: {exc.strerror or exc}")
+            with atomic_path(target) as tmp:  # F-OUTPUT-FAILURES
+                draw(episodes, labels, tmp, with_published=with_published, planned=planned, instances=instances,
+                     fmt=to, policies=data["policies"])
             stdout.print(f"figure written to {target}")
             raise SystemExit(EXIT_INVALID if problems else 0)
         refs = [lab for lab in CONTROLLERS if lab in labels]
@@ -91,10 +90,7 @@ def report(bundles: tuple[Path, ...], to: str, output: Path | None, metric_keys:
     if output is None:
         click.echo(text, nl=False)
     else:
-        try:
-            output.write_text(text, encoding="utf-8")
-        except OSError as exc:
-            fail(f"cannot write {output}: {exc.strerror or exc}")
+        write_text(output, text)  # F-OUTPUT-FAILURES
         stdout.print(f"{to} written to {output}")
     if problems:  # F-EXIT-CODES: rendered on request, still not a complete result
         raise SystemExit(EXIT_INVALID)
@@ -124,9 +120,8 @@ def _training_curves(dirs: tuple[Path, ...], to: str, output: Path | None) -> No
         fail(str(exc))
     target = output or Path(f"{dirs[0].resolve().name}-curves.{to}")
     try:
-        draw(runs, target)
+        with atomic_path(target) as tmp:  # F-OUTPUT-FAILURES
+            draw(runs, tmp, fmt=to)
     except MissingExtra as exc:
         fail(str(exc), EXIT_USAGE)
-    except OSError as exc:
-        fail(f"cannot write {target}: {exc.strerror or exc}")
     stdout.print(f"training curves of {len(runs)} run(s) written to {target}")

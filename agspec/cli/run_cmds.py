@@ -31,6 +31,7 @@ from agspec.cli.common import (
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.cli.grammar import horizon_option, timeout_option
 from agspec.controllers import CONTROLLERS
+from agspec.formats.output import make_dir
 from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT
 
 PAPER_DIR = "paper-reproduction"  # `evaluate --paper`'s default output directory
@@ -150,10 +151,7 @@ def run(target: str, index: int | None, seed: int | None, controller: str, horiz
     instance = load_instance(target, index, seed)
     writer = None
     if trace_path is not None:
-        try:
-            writer = TraceWriter(trace_path)
-        except OSError as exc:
-            fail(f"cannot write trace {trace_path}: {exc}")
+        writer = TraceWriter(trace_path)  # F-OUTPUT-FAILURES
     total = horizon or instance["scenario"]["evaluation"].get("horizon") or instance["scenario"]["evaluation"].get("timeout")
     show = fmt == "table" and sys.stderr.isatty()
     try:
@@ -285,6 +283,7 @@ def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
         run_paper,
     )
 
+    make_dir(out_dir)  # F-OUTPUT-FAILURES: an unusable directory is found before the episodes run
     total = sum(len(indices) for _, _, indices in default_plan())
     show = fmt == "table" and sys.stderr.isatty()
     with Progress(TextColumn("[bold]paper reproduction"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),

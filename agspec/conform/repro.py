@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from agspec import __version__
-from agspec.formats import limits
+from agspec.formats import limits, output
 from agspec.formats.schemas import self_check
 from agspec.ir.schemas import validate_schema
 
@@ -66,14 +66,11 @@ def history_record(requests: Sequence[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def save_reproducer(directory: str | Path, data: Mapping[str, Any]) -> Path:
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    directory = output.make_dir(directory)  # F-OUTPUT-FAILURES: written whole or not at all
     self_check("repro", data)  # F-SCHEMAS-SELF
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", str(data.get("id", "case")))
-    path = directory / f"{safe}.repro.json"
-    path.write_text(json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n",
-                    encoding="utf-8")
-    return path
+    return output.write_text(directory / f"{safe}.repro.json",
+                             json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False, allow_nan=False) + "\n")
 
 
 class ReproError(ValueError):

@@ -30,6 +30,7 @@ from typing import Any, Mapping
 from agspec import invariants
 from agspec.conform import golden, known, repro
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
+from agspec.formats.output import OutputError
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.impl import history as history_mod
 from agspec.conform.items import Item
@@ -209,6 +210,8 @@ def run_item(item: Item, impl: Implementation, opts: Options) -> Result:
     except ProtocolError as exc:
         _protocol_error(res, item, exc, -1)
         return res
+    except OutputError:  # F-OUTPUT-FAILURES: a golden trace or reproducer that cannot be written ends the run
+        raise
     except Exception as exc:  # a failure of the harness or of the reference itself
         tick = res.ticks - 1
         res.outcome = "error"
@@ -417,10 +420,7 @@ def _check(res: Result, item: Item, t: int, div, reply: Mapping[str, Any], ctx, 
                                        execution_seed=item.execution_seed, actions=sent,
                                        impl=opts.impl_spec or impl.spec, failure=failure, tolerance=opts.tolerance,
                                        expectations=expectations)
-        try:
-            reproducer = str(repro.save_reproducer(opts.repro_dir, data))
-        except OSError as exc:
-            failure["message"] += f" (reproducer not saved: {exc})"
+        reproducer = str(repro.save_reproducer(opts.repro_dir, data))  # F-OUTPUT-FAILURES
     failure["reproducer"] = reproducer
     res.actions_sent = [dict(a) for a in sent]
     res.failure = failure

@@ -16,6 +16,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+from agspec.formats import output
+
 CODE = "harness_killed"  # F-PROTOCOL-ERRORS, category crash
 
 
@@ -26,11 +28,7 @@ def mark(directory: str, item_id: str, impl: Any) -> Path:
     record = {"item": item_id, "worker": os.getpid(), "spec": getattr(impl, "spec", ""),
               "simulator": "process" if kind == "SubprocessImpl" else "adapter" if kind == "PythonImpl" else None,
               "simulator_pid": proc.pid if proc is not None else None}
-    path = Path(directory) / f"{os.getpid()}.json"
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(record), encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    return output.write_text(Path(directory) / f"{os.getpid()}.json", json.dumps(record))  # F-OUTPUT-FAILURES
 
 
 def clear(path: Path) -> None:

@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-from agspec.formats import jsonl, limits, schemas
+from agspec.formats import jsonl, limits, output, schemas
 
 GOLDEN_FORMAT = "agspec-golden/1"
 # the seq as the decoder reads it: an integer literal without leading zeros, within F-VALUES (16 digits at
@@ -117,15 +115,8 @@ def dump(golden: Golden, path: str | Path) -> None:
     doc = {**body, "digest": _digest(body)}
     schemas.self_check("golden", doc)  # F-SCHEMAS-SELF
     text = json.dumps(doc, separators=(",", ":"), sort_keys=True, ensure_ascii=False, allow_nan=False)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".golden-", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as out:
-            out.write(text + "\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    output.make_dir(path.parent)
+    output.write_text(path, text + "\n")  # F-OUTPUT-FAILURES
 
 
 def load(path: str | Path, key: Mapping[str, Any]) -> Golden:

@@ -19,6 +19,7 @@ from typing import IO, Any, Callable, Iterable, Iterator, Mapping
 
 from agspec.formats.diagnostics import Diagnostic
 from agspec.formats import limits as _limits
+from agspec.formats.output import Stream
 
 try:  # the optional extra `fast`: the reference server's reply lines encoded about ten times faster
     import orjson
@@ -172,7 +173,7 @@ class LineWriter:
         if hasattr(target, "write"):
             self._fh = target  # type: ignore[assignment]
         else:
-            self._fh = open(target, "w", encoding="utf-8")
+            self._fh = Stream(target)  # F-OUTPUT-FAILURES: an OSError names the file
             self._owned = True
 
     def write(self, record: Mapping[str, Any]) -> None:

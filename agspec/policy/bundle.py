@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
-from agspec.formats import limits
+from agspec.formats import limits, output
 from agspec.formats.schemas import self_check
 from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
 from agspec.policy.trained import with_action
@@ -63,17 +63,12 @@ class BundleWriter:
         self.path = Path(path)
         self.head = dict(head)
         self.records: list[dict[str, Any]] = []
-        try:
-            self.fh = self.path.open("w", encoding="utf-8")
-        except OSError as exc:
-            raise BundleError(f"cannot write results bundle {path}: {exc.strerror or exc}") from None
+        self.fh = output.Stream(self.path)  # F-OUTPUT-FAILURES
         text = json.dumps(self.head, ensure_ascii=False)
         self.fh.write(text[:-1] + ', "episodes": [\n')
-        self.fh.flush()
 
     def add(self, record: Mapping[str, Any]) -> None:
         self.fh.write(("" if not self.records else ",\n") + json.dumps(record, ensure_ascii=False))
-        self.fh.flush()
         self.records.append(dict(record))
 
     def close(self, **tail: Any) -> None:
@@ -81,16 +76,11 @@ class BundleWriter:
         self.fh.close()
         doc = {**self.head, "complete": True, **tail, "episodes": self.records}
         self_check("results", doc)  # F-SCHEMAS-SELF
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-        os.replace(tmp, self.path)
+        output.write_text(self.path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
 
     def abandon(self) -> None:
         """Leave the incremental file as it is (interrupted campaign)."""
-        try:
-            self.fh.close()
-        except OSError:
-            pass
+        self.fh.abandon()
 
 
 def _recover(text: str) -> dict[str, Any] | None:

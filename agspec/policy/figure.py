@@ -51,8 +51,9 @@ def key(row: Row) -> tuple[str, str]:
 
 
 def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Path, with_published: bool = True,
-         planned: Planned | None = None, instances: str = "final-test instances", policies: Any = None) -> Path:
-    """Render the figure to ``path`` (format from its suffix: .svg, .png or .pdf)."""
+         planned: Planned | None = None, instances: str = "final-test instances", policies: Any = None,
+         fmt: str | None = None) -> Path:
+    """Render the figure to ``path`` (format ``fmt``, else from its suffix: .svg, .png or .pdf)."""
     plt = pyplot()
     data = series(episodes, labels, with_published, planned, policies)
     fig, axes = plt.subplots(2, 3, figsize=(11, 5.6), sharey="row", constrained_layout=True)
@@ -92,6 +93,6 @@ def draw(episodes: Sequence[Mapping[str, Any]], labels: Sequence[str], path: Pat
                fontsize="small", title="\n".join(footer) or None, title_fontsize="x-small", alignment="left")
     fig.suptitle(f"Decentralized reference behavior across workload families\n{instances}; 95 % intervals over "
                  "instances (published rows: over training seeds)", fontsize="medium")
-    fig.savefig(path, format=path.suffix.lstrip(".").lower())
+    fig.savefig(path, format=fmt or path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path

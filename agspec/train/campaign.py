@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
 
 from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS
+from agspec.formats import output
 from agspec.train.config import ALGORITHMS
 
 PLAN_SCHEMA = "agspec-training-plan/1"
@@ -168,11 +169,12 @@ def run_campaign(plan: Mapping[str, Any], out: Path, executor: Any,
     """
     from agspec.campaign.executor import Done, Task, run_ordered
 
-    out.mkdir(parents=True, exist_ok=True)
-    (out / PLAN_FILE).write_text(json.dumps(plan, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    output.make_dir(out)  # F-OUTPUT-FAILURES: an unusable directory is found before any run
+    output.write_text(out / PLAN_FILE, json.dumps(plan, indent=2, sort_keys=True) + "\n")
     todo = items(plan, out)
-    tmp = out / (RECORD_FILE + ".tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
+    tmp = out / (RECORD_FILE + ".tmp")  # a cut campaign leaves it, a prefix of the record
+    fh = output.Stream(tmp)
+    try:
         for i, outcome in run_ordered(Task(run_one), todo, executor):
             item = todo[i]
             if isinstance(outcome, Done):
@@ -181,11 +183,15 @@ def run_campaign(plan: Mapping[str, Any], out: Path, executor: Any,
                 record = {"run": item.name, "algorithm": item.algorithm, "scenario": item.scenario, "seed": item.seed,
                           "status": "error", "error": outcome.message()}
             fh.write(json.dumps(record, sort_keys=True, separators=(",", ":")) + "\n")
-            fh.flush()
             if on_record is not None:
                 on_record(record)
             yield record
-    os.replace(tmp, out / RECORD_FILE)
+    finally:
+        fh.abandon()
+    try:
+        os.replace(tmp, out / RECORD_FILE)
+    except OSError as exc:
+        raise output.OutputError(out / RECORD_FILE, exc) from None
 
 
 __all__ = ["CAMPAIGN_DEFAULTS", "PLAN_SCHEMA", "PlanError", "RunItem", "check_plan", "items", "paper_plan",

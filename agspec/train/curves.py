@@ -100,7 +100,7 @@ def band(runs: Sequence[Mapping[str, Any]], key: str) -> tuple[np.ndarray, np.nd
             np.array([np.percentile(v, 75) for v in vals]))
 
 
-def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
+def draw(runs: Sequence[Mapping[str, Any]], path: Path, fmt: str | None = None) -> Path:
     """One row of panels per scenario; one line (median) and band (IQR) per method; the greedy validation
     as markers on the delivered panel; the budgets under the figure (F-POLICY-BUDGET)."""
     plt = pyplot()
@@ -158,7 +158,7 @@ def draw(runs: Sequence[Mapping[str, Any]], path: Path) -> Path:
     if shown_indices:
         title.append(VALIDATION.format(indices=_indices(sorted(shown_indices))))
     fig.suptitle("\n".join(title), fontsize=8)
-    fig.savefig(path, format=path.suffix.lstrip(".").lower())
+    fig.savefig(path, format=fmt or path.suffix.lstrip(".").lower())
     plt.close(fig)
     return path
 

@@ -9,7 +9,6 @@ so the replay stores them sparse and loses nothing (T-REPLAY).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -18,6 +17,7 @@ import torch
 from torch.nn import functional as F
 
 from agspec.checkpoint import nets
+from agspec.formats import output
 from agspec.train.rollout import EpisodeStats, restart, step_info
 
 
@@ -98,9 +98,8 @@ class Replay:
                 arrays[name] = np.concatenate(column) if column else np.zeros(0)
             else:
                 arrays[name] = np.array(column)
-        tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
+        with output.atomic_path(path) as tmp:  # F-OUTPUT-FAILURES (the suffix stays .npz)
+            np.savez(tmp, **arrays)
 
     @classmethod
     def load(cls, path: Path) -> "Replay":

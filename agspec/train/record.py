@@ -17,6 +17,8 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
+from agspec.formats.output import OutputError
+
 RECORD_SCHEMA = "agspec-training-record/1"
 EPISODE_KEYS = ("milestone_return", "admissions", "delivered", "length")
 # fields that measure the machine, not the run: left out when two records are compared
@@ -50,10 +52,13 @@ class Record:
             fh.truncate(size)
 
     def write(self, row: Mapping[str, Any]) -> None:
-        with open(self.path, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps(row, sort_keys=True, allow_nan=False) + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
+        try:
+            with open(self.path, "a", encoding="utf-8") as fh:
+                fh.write(json.dumps(row, sort_keys=True, allow_nan=False) + "\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+        except OSError as exc:  # F-OUTPUT-FAILURES
+            raise OutputError(self.path, exc) from None
 
 
 def read_record(path: Path) -> Iterator[dict[str, Any]]:

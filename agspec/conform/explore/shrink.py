@@ -51,6 +51,7 @@ from agspec.conform.explore.diff import (
 )
 from agspec.conform.lockstep.compare import MISSING as _MISSING
 from agspec.conform.lockstep.eventdiff import differing
+from agspec.formats import output
 from agspec.ir.schemas import validate_schema
 from agspec.ir.validate import errors, validate_instance
 
@@ -365,16 +366,16 @@ def write_case(shrunk: Shrunk, directory: str | Path, stem: str, *, title: str, 
 
 
     root = Path(directory)
-    (root / "cases").mkdir(parents=True, exist_ok=True)
-    (root / "instances").mkdir(parents=True, exist_ok=True)
+    output.make_dir(root / "cases")  # F-OUTPUT-FAILURES
+    output.make_dir(root / "instances")
     inst_path = root / "instances" / f"{stem}.json"
-    inst_path.write_text(json.dumps(shrunk.instance, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    output.write_text(inst_path, json.dumps(shrunk.instance, indent=1, ensure_ascii=False) + "\n")
     case = to_case(shrunk, title=title, notes=notes, coerced=coerced, instance_ref=f"instances/{stem}.json")
     path = root / "cases" / f"{stem}.yaml"
     header = ("# Counterexample found and shrunk by `agspec diff` (instance: ../instances/" + stem + ".json).\n"
               "# Replay: agspec conform --impl IMPL --suite " + str(root) + " --episodes 0\n")
     text = yaml.safe_dump(case, sort_keys=False, allow_unicode=True, default_flow_style=None, width=120)
-    path.write_text(header + text, encoding="utf-8")
+    output.write_text(path, header + text)
     return path
 
 
