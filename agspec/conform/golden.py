@@ -114,8 +114,7 @@ def replay(item: Item, impl: Implementation, golden: fmt.Golden) -> tuple[int, l
     Failures of the implementation propagate (ProtocolError) with ``failure_tick`` set."""
     at = -1  # the tick whose reply is awaited (-1: load and reset)
     try:
-        impl.load(item.instance)
-        reply = impl.reset(item.execution_seed, golden=golden.replies[0])
+        reply = impl.begin(item.instance, item.execution_seed, golden=golden.replies[0])
         if not _same(reply, golden.replies[0]):
             return 0, [reply]
         pipe = impl.pipeline(list(zip(golden.actions, golden.replies[1:])))
@@ -169,6 +168,9 @@ class Resumed:
 
     def reset(self, execution_seed: int | None) -> Reply:
         return self._answer(None)
+
+    def begin(self, instance: Mapping[str, Any] | None, execution_seed: int | None, golden: Any = None) -> Reply:
+        return self.reset(execution_seed)  # loaded and reset by the replay
 
     def step(self, actions: Mapping[str, int]) -> Reply:
         reply = self._answer(actions)

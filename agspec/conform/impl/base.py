@@ -75,6 +75,11 @@ class Implementation:
         reference gave), a reply line whose exact text has the golden digest is :data:`MATCHED`
         without being decoded — it is the golden reply byte for byte; any other reply is decoded
         and checked as always."""
+        msg = self._prepare(cmd, **fields)
+        return self._finish(msg, lambda: self._exchange(msg, self._limit(cmd)), golden)
+
+    def _prepare(self, cmd: str, **fields: Any) -> dict[str, Any]:
+        """The request ``cmd`` with the next seq, recorded, shown and (with ``validate``) checked."""
         msg = protocol.request(cmd, self._next_seq(), **fields)
         self.requests.record(cmd, fields)
         if self.on_message:
@@ -83,9 +88,11 @@ class Implementation:
             problems = protocol.validate_request(msg)
             if problems:  # a request we built is wrong: an agspec bug, reported loudly
                 raise ProtocolError("schema", f"the harness's own {cmd} request violates its schema: {problems[0]}")
+        return msg
+
+    def _limit(self, cmd: str) -> float | None:
         # start and load may build a whole model (interpreter start-up, instance compilation)
-        return self._finish(msg, lambda: self._exchange(msg, self.start_timeout if cmd in ("start", "load") else None),
-                            golden)
+        return self.start_timeout if cmd in ("start", "load") else None
 
     @property
     def max_restarts(self) -> int | None:
@@ -189,6 +196,14 @@ class Implementation:
         self._instance = None
         self._request("load", instance=instance)
         self._instance = instance
+
+    def begin(self, instance: Mapping[str, Any] | None, execution_seed: int | None,
+              golden: tuple[str, str] | None = None) -> Reply:
+        """An episode's start: ``load`` of ``instance`` (None: the one loaded stays) and ``reset``; the reset
+        reply.  A process gets both requests in one write (RES-STREAM-INPUT)."""
+        if instance is not None:
+            self.load(instance)
+        return self.reset(execution_seed, golden)
 
     def reset(self, execution_seed: int | None, golden: tuple[str, str] | None = None) -> Reply:
         self._ensure()

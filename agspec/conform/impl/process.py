@@ -70,6 +70,44 @@ class SubprocessImpl(Implementation):
         # bytes, decoded and checked by _finish (F-GOLDEN may match the line undecoded)
         return self.process.receive(msg["cmd"], msg["seq"], self.timeout if timeout is None else timeout)
 
+    def begin(self, instance: Mapping[str, Any] | None, execution_seed: int | None,
+              golden: tuple[str, str] | None = None) -> Any:
+        """RES-STREAM-INPUT: the input is a stream of lines, so ``load`` and the ``reset`` after it go out in
+        one write, on every path (live and golden): a simulator that reads a chunk and answers one line of
+        it is judged alike everywhere.  After a refused load the reset's reply is read and dropped, so the
+        session stays in step."""
+        if instance is None:
+            return self.reset(execution_seed, golden)
+        self.budget.check_instance(instance, self.spec)
+        if not self._alive:
+            self.start()
+        self._instance = None
+        load = self._prepare("load", instance=instance)
+        reset = self._prepare("reset", execution_seed=execution_seed)
+        try:
+            self.process.send(b"".join((protocol.encode(m) + "\n").encode("utf-8") for m in (load, reset)), "load")
+        except ProtocolError as exc:
+            raise self._failed(exc)
+        try:
+            self._finish(load, lambda: self._receive(load, self._limit("load")), None)
+        except BaseException:
+            if self._alive:  # the simulator answered the load (``ok: false``, unsupported): drop the reset's reply
+                try:
+                    self._finish(reset, lambda: self._receive(reset, None), None)
+                except (ProtocolError, protocol.Unsupported):
+                    pass
+            raise
+        self._instance = instance
+        return self._finish(reset, lambda: self._receive(reset, None), golden)
+
+    def _failed(self, exc: ProtocolError) -> ProtocolError:
+        """A request that could not be sent ends the session (the next request restarts it)."""
+        if not exc.stderr:
+            exc.stderr = self.stderr_tail()
+        self.budget.failed("load", exc)
+        self._fail()
+        return exc
+
     def pipeline(self, steps: Sequence[tuple[Mapping[str, int], tuple[str, str]]]) -> Pipeline:
         """F-GOLDEN: up to PIPELINE step requests in flight (one reply per request, in request order,
         F-PROTOCOL), so the simulator computes the next reply while the harness checks this one."""

@@ -220,6 +220,19 @@ class Pair:
                 if fp is not None:
                     self._loaded[side] = fp
 
+    def begin(self, instance: Mapping[str, Any], execution_seed: int | None) -> tuple[Any, Any]:
+        """Each side's episode start (``load`` where the side does not hold the instance, then ``reset``,
+        RES-STREAM-INPUT); the expected and the actual reset replies."""
+        fp = fingerprint(instance) if self.cache_loads else None
+        replies = {}
+        for side, impl in self.sides():
+            fresh = fp is None or self._loaded.get(side) != fp
+            self._loaded.pop(side, None)
+            replies[side] = self.call(side, impl.begin, instance if fresh else None, execution_seed)
+            if fp is not None:
+                self._loaded[side] = fp
+        return replies[self.expected_side], replies.get(self.actual_side)
+
     def send_history(self, histories: Mapping[str, Any]) -> None:
         """F-CONFORM-HISTORY: send each side the requests its process had received before (``histories`` by
         side), as a fresh process must get them; the instance it last loaded counts as loaded."""
@@ -293,9 +306,7 @@ def lockstep(pair: Pair, instance: Mapping[str, Any], execution_seed: int | None
         return run
 
     try:
-        pair.load(instance)
-        exp = pair.call(es, exp_impl.reset, execution_seed)
-        act = pair.call(as_, act_impl.reset, execution_seed) if act_impl is not None else None
+        exp, act = pair.begin(instance, execution_seed)
     except ImplementationFailure as failure:
         return fail(-1, failure)
     run.replies = (exp, act)
