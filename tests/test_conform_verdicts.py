@@ -312,8 +312,8 @@ def test_diff_reports_a_nondeterministic_implementation(coin):
                                       "--controller", "greedy", "--format", "json", "-o", "out"])
     assert result.exit_code == runner.EXIT_NONDETERMINISTIC, result.output
     (finding,) = json.loads(result.stdout)["findings"]
-    evidence = finding["nondeterministic"]["original"]
-    assert evidence["replays"] == 3 and evidence["reproduced"] == 0
+    evidence = finding["nondeterministic"]["original"]  # fresh replays, judged as conform judges (F-CONFORM-HISTORY)
+    assert evidence["replays"] >= 2 and evidence["reproduced"] < evidence["replays"]
 
 
 def test_conform_reports_a_nondeterministic_implementation(coin):

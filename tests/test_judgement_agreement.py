@@ -9,8 +9,8 @@ import pytest
 
 from judgement_cases import judge
 
-CASES = [("every-50th", 50), ("every-23th", 23), ("leak_load", frozenset({"leak_load"})),
-         ("wrong_at", frozenset({"wrong_at"}))]
+# a history-dependent wrapper and a leaking simulator (the whole set: benchmarks/fuzz_judgement.py)
+CASES = [("every-50th", 50), ("leak_load", frozenset({"leak_load"}))]
 
 
 @pytest.mark.parametrize("name, what", CASES, ids=[c[0] for c in CASES])

@@ -258,8 +258,8 @@ def test_the_checks_catch_a_renderer_that_hides_the_budget(monkeypatch, tmp_path
     elif mutant == "rows_without_training":
         monkeypatch.setattr(trained, "trainings", lambda policies: {})
     else:
-        original = tables._tex
-        monkeypatch.setattr(tables, "_tex", lambda text: original(text).replace("†", ""))
+        original = tables.tex
+        monkeypatch.setattr(tables, "tex", lambda text: original(text).replace("†", ""))
     @given(trained_bundles())
     @settings(max_examples=20, deadline=None, suppress_health_check=list(HealthCheck), database=None, phases=NO_SHRINK)
     def check(case):
