@@ -13,8 +13,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from agspec import IR_VERSION
-from agspec.formats import limits
-from agspec.formats import output
+from agspec.formats import limits, output
 from agspec.formats.schemas import self_check
 from agspec.interop.original import ExportError, instance_definition, instance_sha256
 from agspec.ir.fingerprint import fingerprint

@@ -31,10 +31,10 @@ from typing import Any, Callable, Iterable, Sequence
 from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedInput
 
-from agspec.formats.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
 from agspec.formats import limits, positions
+from agspec.formats.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
 from agspec.ir.schemas import KINDS, validate_schema
 from agspec.resources import catalogue_dir
 from agspec.suggest import Change, Fix, closest, line_removal

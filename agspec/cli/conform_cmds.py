@@ -31,7 +31,6 @@ from agspec.cli.grammar import (
 )
 from agspec.formats.output import make_dir
 
-
 # =============================================================================================== conform
 
 

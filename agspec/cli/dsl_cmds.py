@@ -31,8 +31,8 @@ from agspec.cli.common import (
     stderr,
     stdout,
 )
-from agspec.formats.diagnostics import Diagnostic
 from agspec.dsl.fmt import format_ir, format_source
+from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.output import write_text
 from agspec.load import Document, Resolver, check_document, io_fault, load_document, resolve_argument
 

@@ -24,12 +24,12 @@ from agspec.catalogue import (
     write_lock,
 )
 from agspec.cli.common import (
-    Choice,
     EXIT_INVALID,
     EXIT_OK,
     EXIT_USAGE,
     FORMAT_OPTION,
     SEED_RANGE,
+    Choice,
     emit_json,
     error,
     fail,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from agspec.cli.common import Choice, EXIT_INVALID, EXIT_USAGE, fail, stdout
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, Choice, fail, stdout
 from agspec.cli.run_cmds import METRICS
 from agspec.formats.output import atomic_path, write_text
 

@@ -30,7 +30,6 @@ from typing import Any, Mapping
 from agspec import invariants
 from agspec.conform import golden, known, repro
 from agspec.conform.cases.expectations import available_parts, mismatches, tally
-from agspec.formats.output import OutputError
 from agspec.conform.impl import Implementation, ReferenceImpl
 from agspec.conform.impl import history as history_mod
 from agspec.conform.items import Item
@@ -38,6 +37,7 @@ from agspec.conform.lockstep import compare, driver
 from agspec.conform.lockstep.actions import ControllerPolicy, ScriptPolicy
 from agspec.conform.lockstep.driver import Pair
 from agspec.formats.divergences import expect_entry
+from agspec.formats.output import OutputError
 from agspec.formats.protocol import ProtocolError, Unsupported
 
 # F-CONFORM-LEVELS: the behavioural parts of a reply; what a run compared of them is the level it proved

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from agspec import IR_VERSION
-from agspec.formats.diagnostics import Diagnostic, Span, json_pointer
 from agspec.dsl.parse import Atom, DocumentNode, Field, SourceFile, parse
+from agspec.formats.diagnostics import Diagnostic, Span, json_pointer
 
 # v1 defaults: paper table "Constants shared by the official configurations" (abstract-v1).
 PROFILE_DEFAULTS: dict[str, Any] = {

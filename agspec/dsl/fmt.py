@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from decimal import Decimal
 from typing import Any, Iterable, Mapping, Sequence
 
-from agspec.formats.diagnostics import Diagnostic
 from agspec.dsl.build import PROFILE_DEFAULTS, build
 from agspec.dsl.parse import keywords, parse
+from agspec.formats.diagnostics import Diagnostic
 
 INDENT = "    "
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(?:[.\-][A-Za-z0-9_]+)*")

@@ -37,9 +37,9 @@ from typing import Any
 from lark import Token, Transformer, v_args
 from lark.exceptions import UnexpectedInput
 
-from agspec.formats.diagnostics import Diagnostic, Span
 from agspec.dsl.grammar import _parser, keywords
 from agspec.dsl.recovery import MAX_ERRORS, _Recovery, _span_of, describe_expected
+from agspec.formats.diagnostics import Diagnostic, Span
 
 # keywords and describe_expected are offered here too: the parser's public words
 __all__ = ["Atom", "DocumentNode", "Field", "MAX_ERRORS", "Role", "SourceFile", "Use", "describe_expected",

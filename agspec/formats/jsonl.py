@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Callable, Iterable, Iterator, Mapping
 
-from agspec.formats.diagnostics import Diagnostic
 from agspec.formats import limits as _limits
+from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.output import Stream
 
 try:  # the optional extra `fast`: the reference server's reply lines encoded about ten times faster

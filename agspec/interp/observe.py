@@ -27,7 +27,6 @@ from agspec.interp.model import Model
 from agspec.interp.state import Cell, Product, State, cell_id
 
 
-
 class SlotOverflow(RuntimeError):
     """O-ACTION-ENCODING: more options than action slots; v1 raises instead of truncating."""
 

@@ -33,9 +33,9 @@ from typing import Any, Callable, Mapping
 from agspec import SPEC_VERSION
 from agspec.catalogue import CatalogueError, load_scenario_bundle, read_lock
 from agspec.controllers import CONTROLLERS
-from agspec.formats.trace import behavioural
 from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.pointer import first_difference
+from agspec.formats.trace import behavioural
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import defining_view, fingerprint

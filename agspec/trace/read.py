@@ -21,8 +21,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from agspec.formats.diagnostics import Diagnostic
 from agspec.formats import limits
+from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.jsonl import iter_lines
 from agspec.formats.schemas import validate
 from agspec.formats.trace import values_of

@@ -17,9 +17,8 @@ from typing import Any, Mapping
 
 import yaml
 
-from agspec.suggest import choice_message
-
 from agspec.marl.curriculum import EXECUTION_BASE, FAMILY_SEED_OFFSET, GENERATION_BASE
+from agspec.suggest import choice_message
 
 CONFIG_SCHEMA = "agspec-training-config/1"
 ALGORITHMS = ("ippo", "mappo", "qmix")

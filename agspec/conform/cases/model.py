@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-
 CASE_GLOBS = ("*.yaml", "*.yml", "*.json")
 STATE_KEYS = ("t", "released", "delivered", "wip", "lost_releases", "robots", "products", "items", "shelves",
               "proposals", "activities")

@@ -29,7 +29,6 @@ from agspec.ir.fingerprint import FingerprintError, fingerprint
 from agspec.ir.instance import make_instance
 from agspec.resources import conformance_dir
 
-
 # =============================================================================================
 # YAML with line numbers
 

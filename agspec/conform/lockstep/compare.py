@@ -28,7 +28,6 @@ from agspec.conform.lockstep.eventdiff import (
     render_event_diff,
 )
 from agspec.formats.actions import describe as describe_action
-from agspec.formats.trace import DIAGNOSTIC_FIELDS, behavioural, is_diagnostic
 from agspec.formats.pointer import (
     MISSING,
     escape,
@@ -37,6 +36,7 @@ from agspec.formats.pointer import (
     show,
     to_json,
 )
+from agspec.formats.trace import DIAGNOSTIC_FIELDS, behavioural, is_diagnostic
 
 # The parts of a reset/step reply, in the order they are compared.
 COMPARED = ("t", "state", "events", "observations", "masks", "applied", "done")

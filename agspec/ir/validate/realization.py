@@ -9,8 +9,8 @@ from typing import Mapping
 
 from agspec.formats.diagnostics import Issue
 from agspec.ir.validate.common import (
-    Json,
     REACH_TOLERANCE,
+    Json,
     _dict,
     _err,
     _is_int,

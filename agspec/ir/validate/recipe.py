@@ -12,12 +12,12 @@ import networkx as nx
 from agspec.formats.diagnostics import Issue
 from agspec.ir import topology
 from agspec.ir.validate.common import (
-    Json,
     MAX_CYCLES,
+    Json,
     _dict,
     _did_you_mean,
-    _fixable,
     _err,
+    _fixable,
     _is_int,
     _is_num,
     _list,

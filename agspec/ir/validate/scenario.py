@@ -10,14 +10,13 @@ from typing import Mapping
 from agspec.formats.diagnostics import Issue
 from agspec.ir import topology, variants
 from agspec.ir.fingerprint import FingerprintError, fingerprint
-from agspec.resources import catalogue_dir
 from agspec.ir.validate.common import (
     Json,
     Resolver,
     _dict,
     _did_you_mean,
-    _fixable,
     _err,
+    _fixable,
     _is_int,
     _is_num,
     _list,
@@ -27,6 +26,7 @@ from agspec.ir.validate.common import (
     _warn,
 )
 from agspec.ir.validate.recipe import arity_of, recipe_view
+from agspec.resources import catalogue_dir
 
 
 def validate_scenario(ir: Json, resolver: Resolver) -> list[Issue]:
