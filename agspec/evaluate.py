@@ -18,16 +18,8 @@ from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.interp.state import cell_id
 from agspec.policy import fresh
 from agspec.policy.contract import PolicyError, PolicySpec
-from agspec.policy.episode import (
-    DEFAULT_LOAD_TIMEOUT,
-    EpisodeResult,
-    Job,
-    as_policy,
-    check_joint,
-    job_record,
-    run_episode,
-    run_here,
-)
+from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT, EpisodeResult, Job, as_policy, check_joint, job_record
+from agspec.policy.episode import run_episode, run_here
 from agspec.policy.host import PolicyHosts
 from agspec.policy.stats import mean_ci
 

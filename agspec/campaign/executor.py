@@ -16,30 +16,12 @@ from __future__ import annotations
 
 import random
 from collections import deque
-from concurrent.futures import (
-    FIRST_COMPLETED,
-    BrokenExecutor,
-    Future,
-    ProcessPoolExecutor,
-    wait,
-)
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Future, ProcessPoolExecutor, wait
 from multiprocessing.util import Finalize
 from typing import Any, Callable, Iterator, Sequence
 
-from agspec.campaign.task import (
-    DEFAULT_RETRIES,
-    EXECUTORS,
-    Backend,
-    Done,
-    Event,
-    ExecutorError,
-    ExecutorSpec,
-    Failed,
-    Outcome,
-    RunFatal,
-    Task,
-    describe,
-)
+from agspec.campaign.task import DEFAULT_RETRIES, EXECUTORS, Backend, Done, Event, ExecutorError, ExecutorSpec, Failed
+from agspec.campaign.task import Outcome, RunFatal, Task, describe
 
 # --------------------------------------------------------------------------- local backends
 

@@ -15,12 +15,7 @@ from agspec.campaign.task import Event, ExecutorError, ExecutorSpec, Task, descr
 
 try:
     import ray
-    from ray.exceptions import (
-        ActorDiedError,
-        ActorUnavailableError,
-        RayActorError,
-        WorkerCrashedError,
-    )
+    from ray.exceptions import ActorDiedError, ActorUnavailableError, RayActorError, WorkerCrashedError
 except ImportError:  # pragma: no cover - exercised only without the extra
     ray = None
 

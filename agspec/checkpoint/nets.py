@@ -12,15 +12,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from agspec.formats.actions import (
-    DELIVER,
-    HANDOFF0,
-    IDLE,
-    N_ACTIONS,
-    OP0,
-    PICK0,
-    RECEIVE0,
-)
+from agspec.formats.actions import DELIVER, HANDOFF0, IDLE, N_ACTIONS, OP0, PICK0, RECEIVE0
 from agspec.marl.encoding import OBS_DIM
 
 # T-ACTOR: the six action families of O-ACTION-ENCODING, one family logit each

@@ -12,22 +12,10 @@ import sys
 import time
 from typing import Any, Sequence
 
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from agspec.campaign.executor import (
-    Done,
-    ExecutorError,
-    ExecutorSpec,
-    Task,
-    run_ordered,
-)
+from agspec.campaign.executor import Done, ExecutorError, ExecutorSpec, Task, run_ordered
 from agspec.cli.common import emit_json, fail, stderr, stdout
 from agspec.formats.output import Stream
 from agspec.formats.schemas import self_check

@@ -12,23 +12,9 @@ from typing import Any
 import click
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_OK,
-    EXIT_USAGE,
-    FORMAT_OPTION,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
-from agspec.cli.grammar import (
-    exitfirst_option,
-    horizon_option,
-    output_option,
-    timeout_option,
-)
+from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
 from agspec.formats.output import make_dir
 
 # =============================================================================================== conform

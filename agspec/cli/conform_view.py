@@ -15,25 +15,11 @@ import time
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_OK,
-    EXIT_USAGE,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, emit_json, fail, stderr, stdout
 from agspec.conform.coverage.values import EVENT_RULES
 from agspec.conform.run_item import LEVEL_PARTS
 from agspec.conform.runner import EXIT_NONDETERMINISTIC, level_name
@@ -340,13 +326,7 @@ def _variant_table(universe, variants: Mapping[str, Any], n_items: int) -> Table
 def check_trace_command(path: str, fmt: str) -> int:
     from agspec.cli.check_view import timing
     from agspec.invariants import INVARIANT_IDS, check_trace
-    from agspec.trace.check import (
-        diag_record,
-        paired_records,
-        report_record,
-        trace_diag,
-        verify_whole,
-    )
+    from agspec.trace.check import diag_record, paired_records, report_record, trace_diag, verify_whole
     from agspec.trace.read import read_trace
 
     records, diags = read_trace(path)

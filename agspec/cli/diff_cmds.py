@@ -9,32 +9,11 @@ from typing import Any
 import click
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.catalogue import (
-    CatalogueError,
-    InvalidDocumentError,
-    InvalidInstanceError,
-    parse_indices,
-)
-from agspec.cli.common import (
-    EXIT_HARNESS,
-    EXIT_INVALID,
-    EXIT_OK,
-    EXIT_USAGE,
-    FORMAT_OPTION,
-    SEED_RANGE,
-    Choice,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError, parse_indices
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, Choice
+from agspec.cli.common import emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import executor_options
-from agspec.cli.grammar import (
-    exitfirst_option,
-    horizon_option,
-    output_option,
-    timeout_option,
-)
+from agspec.cli.grammar import exitfirst_option, horizon_option, output_option, timeout_option
 from agspec.conform.confirm import HISTORY_DEPENDENT, NONDETERMINISTIC, REPRODUCED
 from agspec.conform.lockstep.compare import reply_name
 from agspec.conform.run_item import LEVEL_PARTS

@@ -20,17 +20,8 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from agspec.cli.common import (
-    EXIT_INTERNAL,
-    EXIT_INVALID,
-    EXIT_OK,
-    EXIT_USAGE,
-    FORMAT_OPTION,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_INTERNAL, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, emit_json, fail, stderr
+from agspec.cli.common import stdout
 from agspec.dsl.fmt import format_ir, format_source
 from agspec.formats.diagnostics import Diagnostic
 from agspec.formats.output import write_text

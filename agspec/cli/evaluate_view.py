@@ -12,27 +12,12 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 from rich.text import Text
 
 from agspec.campaign.executor import ExecutorSpec
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_USAGE,
-    emit_json,
-    fail,
-    print_table,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, print_table, stderr, stdout
 from agspec.controllers import CONTROLLERS
 
 # the mechanism diagnostics the paper reports beside the outcomes (tab:coalcoord-full and siblings)
@@ -186,11 +171,7 @@ class Campaign:
 
     def jobs(self) -> tuple[list, list[dict[str, Any]]]:
         """Jobs still to run (episodes in --from bundles are reused) and the instances' identities."""
-        from agspec.catalogue import (
-            CatalogueError,
-            InvalidDocumentError,
-            load_scenario_bundle,
-        )
+        from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
         from agspec.evaluate import Job
         from agspec.ir.fingerprint import fingerprint
         from agspec.ir.instance import make_instance
@@ -270,22 +251,9 @@ class Campaign:
         from agspec.evaluate import summarize
         from agspec.extras import MissingExtra
         from agspec.policy import published
-        from agspec.policy.coverage import (
-            coverage,
-            describe_sets,
-            final_test_only,
-            incomplete,
-        )
+        from agspec.policy.coverage import coverage, describe_sets, final_test_only, incomplete
         from agspec.policy.stats import compare
-        from agspec.policy.tables import (
-            COMPARISON_HEADER,
-            comparison_cells,
-            fmt_cell,
-            layout,
-            notes,
-            row_n,
-            row_name,
-        )
+        from agspec.policy.tables import COMPARISON_HEADER, comparison_cells, fmt_cell, layout, notes, row_n, row_name
 
         labels = self.labels
         refs = [lab for lab in CONTROLLERS if lab in labels]

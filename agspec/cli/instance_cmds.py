@@ -11,31 +11,10 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from agspec.catalogue import (
-    GEOMETRY_MATCHED,
-    OFFICIAL_SCENARIOS,
-    CatalogueError,
-    InvalidDocumentError,
-    load_scenario_bundle,
-    lock_entries,
-    lock_path,
-    read_lock,
-    verify_lock,
-    write_lock,
-)
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_OK,
-    EXIT_USAGE,
-    FORMAT_OPTION,
-    SEED_RANGE,
-    Choice,
-    emit_json,
-    error,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.catalogue import GEOMETRY_MATCHED, OFFICIAL_SCENARIOS, CatalogueError, InvalidDocumentError
+from agspec.catalogue import load_scenario_bundle, lock_entries, lock_path, read_lock, verify_lock, write_lock
+from agspec.cli.common import EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, Choice, emit_json, error
+from agspec.cli.common import fail, stderr, stdout
 from agspec.formats import limits
 from agspec.formats.output import write_text
 from agspec.interop.original import ExportError, instance_definition, instance_sha256, original_instance_id

@@ -7,16 +7,7 @@ from pathlib import Path
 import click
 from rich.markup import escape
 
-from agspec.cli.common import (
-    EXIT_HARNESS,
-    EXIT_INVALID,
-    EXIT_USAGE,
-    SEED_RANGE,
-    Choice,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_USAGE, SEED_RANGE, Choice, fail, stderr, stdout
 from agspec.cli.grammar import horizon_option, output_option, timeout_option
 from agspec.controllers import CONTROLLERS
 from agspec.formats.output import write_text

@@ -7,27 +7,12 @@ from pathlib import Path
 from typing import Any
 
 import click
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-)
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
-from agspec.cli.common import (
-    EXIT_HARNESS,
-    EXIT_INVALID,
-    FORMAT_OPTION,
-    SEED_RANGE,
-    Choice,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, FORMAT_OPTION, SEED_RANGE, Choice, emit_json, fail, stderr
+from agspec.cli.common import stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.cli.grammar import horizon_option, timeout_option
 from agspec.controllers import CONTROLLERS
@@ -97,11 +82,7 @@ def which_instance(instance: dict[str, Any]) -> str:
 
 def load_instance(target: str, index: int | None, seed: int | None) -> dict[str, Any]:
     """agspec.catalogue.load_instance with its errors as CLI failures (F-EXIT-CODES)."""
-    from agspec.catalogue import (
-        CatalogueError,
-        InvalidDocumentError,
-        InvalidInstanceError,
-    )
+    from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError
     from agspec.catalogue import load_instance as load
 
     try:
@@ -275,13 +256,7 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
 
 def _evaluate_paper(campaign: ExecutorSpec, out_dir: Path, fmt: str) -> None:
     """`agspec evaluate --paper`: the paper's non-learning tables, ours beside theirs."""
-    from agspec.reproduce import (
-        EpisodeFailures,
-        default_plan,
-        ours_text,
-        paper_text,
-        run_paper,
-    )
+    from agspec.reproduce import EpisodeFailures, default_plan, ours_text, paper_text, run_paper
 
     make_dir(out_dir)  # F-OUTPUT-FAILURES: an unusable directory is found before the episodes run
     total = sum(len(indices) for _, _, indices in default_plan())

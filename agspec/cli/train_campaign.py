@@ -14,14 +14,7 @@ from typing import Any, Mapping
 from rich.table import Table
 from rich.text import Text
 
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_USAGE,
-    emit_json,
-    fail,
-    print_table,
-    stderr,
-)
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, print_table, stderr
 
 
 def load_plan(text: str) -> dict[str, Any]:

@@ -12,16 +12,7 @@ from typing import Any, Mapping
 
 import click
 
-from agspec.cli.common import (
-    EXIT_INVALID,
-    EXIT_USAGE,
-    SEED_RANGE,
-    Choice,
-    emit_json,
-    fail,
-    stderr,
-    stdout,
-)
+from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, SEED_RANGE, Choice, emit_json, fail, stderr, stdout
 from agspec.cli.executor_opts import JOBS_HELP, executor_options
 from agspec.cli.grammar import output_option
 
@@ -87,13 +78,7 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
     """
     from agspec.extras import MissingExtra
     from agspec.train.api import scenario_family
-    from agspec.train.config import (
-        ConfigError,
-        flatten_settings,
-        paper_defaults,
-        parse_override,
-        resolve,
-    )
+    from agspec.train.config import ConfigError, flatten_settings, paper_defaults, parse_override, resolve
 
     if campaign_plan is not None:
         from agspec.cli.train_campaign import run_plan
@@ -154,20 +139,9 @@ def train(algorithm: str | None, scenario: str | None, seed: int | None, output:
 
 
 def _run(config: dict[str, Any], out: Path, resume: bool) -> dict[str, Any]:
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from agspec.checkpoint.rundir import (
-        CHECKPOINT,
-        RunDirError,
-        is_complete,
-        refuse_foreign,
-    )
+    from agspec.checkpoint.rundir import CHECKPOINT, RunDirError, is_complete, refuse_foreign
 
     try:  # before the extra is needed: a directory that is not a run is refused whatever is installed
         refuse_foreign(out)

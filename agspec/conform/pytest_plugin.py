@@ -91,11 +91,7 @@ class _State:
         from agspec.conform.cases import SuiteError, load_suite
         from agspec.conform.golden import cache_dir
         from agspec.conform.impl import ImplSpecError, make_impl
-        from agspec.conform.items import (
-            EPISODE_SCENARIOS,
-            catalogue_episodes,
-            from_case,
-        )
+        from agspec.conform.items import EPISODE_SCENARIOS, catalogue_episodes, from_case
         from agspec.conform.run_item import Options
 
         golden_dir = cache_dir(self.config.getoption("agspec_golden_cache"))

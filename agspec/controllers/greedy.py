@@ -10,19 +10,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from agspec.controllers.base import (
-    DELIVER,
-    HANDOFF0,
-    IDLE,
-    OP0,
-    PICK0,
-    RECEIVE0,
-    Obs,
-    Routes,
-    grid_key,
-    parse_cell,
-    routes,
-)
+from agspec.controllers.base import DELIVER, HANDOFF0, IDLE, OP0, PICK0, RECEIVE0, Obs, Routes, grid_key, parse_cell
+from agspec.controllers.base import routes
 from agspec.interp.model import DIRECTION_NAMES, DIRECTIONS
 
 _DIR_INDEX = {name: d for d, name in enumerate(DIRECTION_NAMES)}

@@ -17,13 +17,7 @@ from typing import Any, Mapping
 
 from agspec.formats import shape
 from agspec.formats.jsonl import MAX_DEPTH, NonFinite, TooDeep, depth, loads
-from agspec.formats.schemas import (
-    SchemaProblem,
-    json_type,
-    schema_id,
-    validate,
-    validator,
-)
+from agspec.formats.schemas import SchemaProblem, json_type, schema_id, validate, validator
 
 PROTOCOL = "agspec-protocol/1"
 COMMANDS = ("start", "load", "reset", "step", "stop")

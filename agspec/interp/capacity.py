@@ -47,20 +47,9 @@ from __future__ import annotations
 import math
 from typing import Hashable
 
-from agspec.interp.capacity_model import (
-    Cand,
-    CapacityProblem,
-    CapacityResult,
-    _bits,
-    _count_option_key,
-    _first_fit,
-    _greedy_count_key,
-    _greedy_weight_key,
-    _result,
-    _weight_option_key,
-    greedy_count,
-    greedy_weighted,
-)
+from agspec.interp.capacity_model import Cand, CapacityProblem, CapacityResult, _bits, _count_option_key, _first_fit
+from agspec.interp.capacity_model import _greedy_count_key, _greedy_weight_key, _result, _weight_option_key
+from agspec.interp.capacity_model import greedy_count, greedy_weighted
 
 # the problem's data and greedy bounds are importable from here, beside the exact solvers
 __all__ = ["Cand", "CapacityProblem", "CapacityResult", "DEFAULT_NODE_BUDGET", "greedy_count", "greedy_weighted",

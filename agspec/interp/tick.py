@@ -16,17 +16,8 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import (
-    IDLE,
-    N_ACTIONS,
-    Mask,
-    Options,
-    action_mask,
-    build_options,
-    decode,
-    epoch_views,
-    observation,
-)
+from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_mask, build_options, decode, epoch_views
+from agspec.interp.observe import observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
 

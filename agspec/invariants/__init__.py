@@ -32,17 +32,8 @@ The eleven ``inv_*`` functions are in their group modules and listed, in spec or
 
 from __future__ import annotations
 
-from agspec.invariants.checker import (
-    INVARIANTS,
-    REMEMBERING,
-    Report,
-    check_records,
-    check_trace,
-    check_trace_file,
-    parse_trace_text,
-    read_trace,
-    remember_records,
-)
+from agspec.invariants.checker import INVARIANTS, REMEMBERING, Report, check_records, check_trace, check_trace_file
+from agspec.invariants.checker import parse_trace_text, read_trace, remember_records
 from agspec.invariants.context import INVARIANT_IDS, Context, Violation
 from agspec.invariants.coordination import canonical_roles
 from agspec.invariants.information import expected_mask, expected_pick_ids

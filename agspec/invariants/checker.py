@@ -7,28 +7,10 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from agspec.formats.trace import read_records
-from agspec.invariants.context import (
-    INVARIANT_IDS,
-    TRACE_EMPTY,
-    TRACE_TRUNCATED,
-    TRACE_VACUOUS,
-    Context,
-    Json,
-    Violation,
-)
-from agspec.invariants.coordination import (
-    canonical_roles,
-    inv_arity,
-    inv_lifetime,
-    inv_progress,
-    inv_support,
-)
-from agspec.invariants.information import (
-    expected_mask,
-    expected_pick_ids,
-    inv_masking,
-    inv_observation,
-)
+from agspec.invariants.context import INVARIANT_IDS, TRACE_EMPTY, TRACE_TRUNCATED, TRACE_VACUOUS, Context, Json
+from agspec.invariants.context import Violation
+from agspec.invariants.coordination import canonical_roles, inv_arity, inv_lifetime, inv_progress, inv_support
+from agspec.invariants.information import expected_mask, expected_pick_ids, inv_masking, inv_observation
 from agspec.invariants.material import inv_accounting, inv_conservation, inv_recipe
 from agspec.invariants.space import inv_exclusivity, inv_locality
 

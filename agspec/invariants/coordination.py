@@ -4,16 +4,8 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from agspec.invariants.context import (
-    Context,
-    Json,
-    OpInfo,
-    Violation,
-    _completed_ops,
-    parse_candidate,
-    parse_cell,
-    reporter,
-)
+from agspec.invariants.context import Context, Json, OpInfo, Violation, _completed_ops, parse_candidate, parse_cell
+from agspec.invariants.context import reporter
 
 # --------------------------------------------------------------------------- INV-SUPPORT
 

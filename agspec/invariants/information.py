@@ -4,35 +4,12 @@ from __future__ import annotations
 
 import math
 
-from agspec.formats.actions import (
-    DELIVER,
-    DIRECTION_NAMES,
-    HANDOFF0,
-    IDLE,
-    N_ACTIONS,
-    OP0,
-    OP_SLOTS,
-    PICK0,
-    PICK_SLOTS,
-    RECEIVE0,
-)
+from agspec.formats.actions import DELIVER, DIRECTION_NAMES, HANDOFF0, IDLE, N_ACTIONS, OP0, OP_SLOTS, PICK0
+from agspec.formats.actions import PICK_SLOTS, RECEIVE0
 from agspec.formats.actions import describe as _action_name
-from agspec.invariants.context import (
-    NEIGHBOUR_FIELDS,
-    OBS_FIELDS,
-    OPERATION_OPTION_FIELDS,
-    PICK_OPTION_FIELDS,
-    REACH_TOLERANCE,
-    SUPPORT_TOLERANCE,
-    Context,
-    Json,
-    StateView,
-    Violation,
-    parse_candidate,
-    parse_cell,
-    parse_item,
-    reporter,
-)
+from agspec.invariants.context import NEIGHBOUR_FIELDS, OBS_FIELDS, OPERATION_OPTION_FIELDS, PICK_OPTION_FIELDS
+from agspec.invariants.context import REACH_TOLERANCE, SUPPORT_TOLERANCE, Context, Json, StateView, Violation
+from agspec.invariants.context import parse_candidate, parse_cell, parse_item, reporter
 
 # --------------------------------------------------------------------------- INV-OBSERVATION
 

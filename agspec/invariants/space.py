@@ -5,14 +5,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from agspec.invariants.context import (
-    CONFLICT_TOLERANCE,
-    Context,
-    Json,
-    Violation,
-    parse_cell,
-    reporter,
-)
+from agspec.invariants.context import CONFLICT_TOLERANCE, Context, Json, Violation, parse_cell, reporter
 
 # --------------------------------------------------------------------------- INV-LOCALITY
 

@@ -30,21 +30,8 @@ import numpy as np
 from agspec.interp.model import Model
 from agspec.interp.observe import IDLE_ONLY, N_ACTIONS, NO_OPTIONS, OP_SLOTS, PICK_SLOTS
 from agspec.interp.state import State
-from agspec.marl.encoding import (
-    COUNTS_DIM,
-    NEIGHBOUR_DIM,
-    OBS_DIM,
-    OP_DIM,
-    PICK_DIM,
-    SELF_DIM,
-    PublicInfo,
-    _frac,
-    _saturate,
-    operation_features,
-    pick_features,
-    robot_features,
-    str_hash,
-)
+from agspec.marl.encoding import COUNTS_DIM, NEIGHBOUR_DIM, OBS_DIM, OP_DIM, PICK_DIM, SELF_DIM, PublicInfo, _frac
+from agspec.marl.encoding import _saturate, operation_features, pick_features, robot_features, str_hash
 
 _COUNTS_AT = SELF_DIM + 8 * NEIGHBOUR_DIM
 _PICKS_AT = _COUNTS_AT + COUNTS_DIM

@@ -23,12 +23,7 @@ from typing import Any, Callable, Iterator, Mapping, NamedTuple
 
 from agspec.formats.protocol import ProtocolError
 from agspec.interp.tick import Simulator
-from agspec.policy.contract import (
-    PolicyError,
-    PolicySpec,
-    PolicySpecError,
-    load_factory,
-)
+from agspec.policy.contract import PolicyError, PolicySpec, PolicySpecError, load_factory
 from agspec.transport.peer import Peer
 
 POLICY_PROTOCOL = "agspec-policy/1"

@@ -25,17 +25,8 @@ from typing import Any, Sequence
 
 from agspec.interp.model import Model
 from agspec.trace.effects import HANDLERS, Problem, Replay, complete, drop_proposal, release, replenish
-from agspec.trace.emission import (
-    COMPLETION,
-    EMISSION,
-    IN_EPOCH_EXPIRY,
-    POST_ADVANCE_EXPIRY,
-    RELEASE,
-    RESET,
-    SUPPORT,
-    Step,
-    event_key,
-)
+from agspec.trace.emission import COMPLETION, EMISSION, IN_EPOCH_EXPIRY, POST_ADVANCE_EXPIRY, RELEASE, RESET, SUPPORT
+from agspec.trace.emission import Step, event_key
 from agspec.trace.projection import Json, cell_key, differences, initial, project
 
 MAX_STATE_DIFFS = 6  # per record: the first differences say enough

@@ -25,11 +25,7 @@ __all__ = ["ConfigError", "MissingExtra", "RunDirError", "is_complete", "load_po
 
 def scenario_family(scenario: str) -> str | None:
     """The family of a scenario name or file (T-CURRICULUM's seed offset); ConfigError if unknown."""
-    from agspec.catalogue import (
-        CatalogueError,
-        InvalidDocumentError,
-        load_scenario_bundle,
-    )
+    from agspec.catalogue import CatalogueError, InvalidDocumentError, load_scenario_bundle
 
     try:
         ir, _recipes, _profile = load_scenario_bundle(scenario)

@@ -22,15 +22,7 @@ from fractions import Fraction
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.controllers import make_controller
-from agspec.interp.observe import (
-    DELIVER,
-    HANDOFF0,
-    IDLE,
-    N_ACTIONS,
-    OP0,
-    PICK0,
-    RECEIVE0,
-)
+from agspec.interp.observe import DELIVER, HANDOFF0, IDLE, N_ACTIONS, OP0, PICK0, RECEIVE0
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
 

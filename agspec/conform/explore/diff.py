@@ -45,24 +45,10 @@ from agspec.campaign.executor import Done, ExecutorSpec, Task, run_ordered
 from agspec.catalogue import load_scenario_bundle, read_instance_file
 from agspec.conform.confirm import in_fresh_process, judge
 from agspec.conform.impl import ImplSpecError, make_impl
-from agspec.conform.lockstep.actions import (
-    GENE_RANGE,
-    ControllerPolicy,
-    GenePolicy,
-    ScriptPolicy,
-    with_illegal,
-)
+from agspec.conform.lockstep.actions import GENE_RANGE, ControllerPolicy, GenePolicy, ScriptPolicy, with_illegal
 from agspec.conform.lockstep.compare import Divergence, generalize
-from agspec.conform.lockstep.driver import (
-    ImplementationFailure,
-    JointAction,
-    Pair,
-    Run,
-    error_kind,
-    failure_message,
-    lockstep,
-    robot_order,
-)
+from agspec.conform.lockstep.driver import ImplementationFailure, JointAction, Pair, Run, error_kind, failure_message
+from agspec.conform.lockstep.driver import lockstep, robot_order
 from agspec.formats import limits
 from agspec.formats.actions import is_idle
 from agspec.ir.instance import make_instance

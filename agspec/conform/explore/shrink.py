@@ -40,15 +40,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import yaml
 
-from agspec.conform.explore.diff import (
-    Divergence,
-    JointAction,
-    Pair,
-    Run,
-    is_idle,
-    non_idle,
-    replay,
-)
+from agspec.conform.explore.diff import Divergence, JointAction, Pair, Run, is_idle, non_idle, replay
 from agspec.conform.lockstep.compare import MISSING as _MISSING
 from agspec.conform.lockstep.eventdiff import differing
 from agspec.formats import output

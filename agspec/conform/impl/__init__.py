@@ -23,13 +23,7 @@ import path the spec and the docs name, ``agspec.conform.impl``.
 """
 
 from agspec.conform.impl.adapters import PythonImpl, ReferenceImpl, make_impl
-from agspec.conform.impl.base import (
-           MATCHED,
-           Implementation,
-           ImplSpecError,
-           MessageHook,
-           Reply,
-)
+from agspec.conform.impl.base import MATCHED, Implementation, ImplSpecError, MessageHook, Reply
 from agspec.conform.impl.process import SubprocessImpl
 
 __all__ = ["MATCHED", "Implementation", "ImplSpecError", "MessageHook", "PythonImpl", "ReferenceImpl", "Reply",

@@ -20,22 +20,9 @@ import re
 from dataclasses import dataclass, replace
 from typing import Any, Mapping, Sequence
 
-from agspec.conform.lockstep.eventdiff import (
-    describe_row,
-    differing,
-    event_diff,
-    event_summary,
-    render_event_diff,
-)
+from agspec.conform.lockstep.eventdiff import describe_row, differing, event_diff, event_summary, render_event_diff
 from agspec.formats.actions import describe as describe_action
-from agspec.formats.pointer import (
-    MISSING,
-    escape,
-    first_difference,
-    iter_differences,
-    show,
-    to_json,
-)
+from agspec.formats.pointer import MISSING, escape, first_difference, iter_differences, show, to_json
 from agspec.formats.trace import DIAGNOSTIC_FIELDS, behavioural, is_diagnostic
 
 # The parts of a reset/step reply, in the order they are compared.

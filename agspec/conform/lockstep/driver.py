@@ -27,12 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Protocol, Sequence
 
 from agspec.conform.impl import history as history_mod
-from agspec.conform.lockstep.compare import (
-    MISSING,
-    Divergence,
-    behavioural,
-    compare_reply,
-)
+from agspec.conform.lockstep.compare import MISSING, Divergence, behavioural, compare_reply
 from agspec.formats.actions import IDLE, N_ACTIONS, IllegalAction, option_ids, symbolic
 from agspec.interp.tick import Simulator
 from agspec.ir.fingerprint import fingerprint

@@ -33,23 +33,10 @@ from agspec.formats.diagnostics import Issue
 from agspec.ir.validate.common import Json, Resolver, _dict, errors
 from agspec.ir.validate.profile import _check_profile_values, validate_profile
 from agspec.ir.validate.realization import validate_instance
-from agspec.ir.validate.recipe import (
-    _check_numbers,
-    _check_resources,
-    arity_of,
-    recipe_view,
-    route_graph,
-    route_ops,
-    routes,
-    terminal_token,
-    validate_recipe,
-)
-from agspec.ir.validate.scenario import (
-    _check_grid,
-    _check_scenario_numbers,
-    _check_scenario_resources,
-    validate_scenario,
-)
+from agspec.ir.validate.recipe import _check_numbers, _check_resources, arity_of, recipe_view, route_graph, route_ops
+from agspec.ir.validate.recipe import routes, terminal_token, validate_recipe
+from agspec.ir.validate.scenario import _check_grid, _check_scenario_numbers, _check_scenario_resources
+from agspec.ir.validate.scenario import validate_scenario
 
 __all__ = ["Resolver", "arity_of", "errors", "recipe_view", "route_graph", "route_ops", "routes", "rule_codes",
            "terminal_token", "validate_document", "validate_instance", "validate_profile", "validate_recipe",

@@ -8,17 +8,7 @@ from typing import Mapping
 
 from agspec.formats.diagnostics import Issue
 from agspec.ir import variants
-from agspec.ir.validate.common import (
-    REACH_TOLERANCE,
-    Json,
-    _dict,
-    _did_you_mean,
-    _err,
-    _is_int,
-    _is_num,
-    _ptr,
-    _q,
-)
+from agspec.ir.validate.common import REACH_TOLERANCE, Json, _dict, _did_you_mean, _err, _is_int, _is_num, _ptr, _q
 
 PROFILE_POSITIVE = ("spacing", "reach", "reference_reach", "reference_time", "speed", "joint_speed", "payload")
 PROFILE_NON_NEGATIVE = ("rho_conf", "clearance", "role_target_offset")

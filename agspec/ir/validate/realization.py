@@ -8,20 +8,8 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from agspec.formats.diagnostics import Issue
-from agspec.ir.validate.common import (
-    REACH_TOLERANCE,
-    Json,
-    _dict,
-    _err,
-    _is_int,
-    _is_num,
-    _list,
-    _prefixed,
-    _ptr,
-    _q,
-    _warn,
-    errors,
-)
+from agspec.ir.validate.common import REACH_TOLERANCE, Json, _dict, _err, _is_int, _is_num, _list, _prefixed, _ptr, _q
+from agspec.ir.validate.common import _warn, errors
 from agspec.ir.validate.profile import validate_profile
 from agspec.ir.validate.recipe import validate_recipe
 from agspec.ir.validate.scenario import _validate_scenario

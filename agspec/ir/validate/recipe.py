@@ -11,21 +11,8 @@ import networkx as nx
 
 from agspec.formats.diagnostics import Issue
 from agspec.ir import topology
-from agspec.ir.validate.common import (
-    MAX_CYCLES,
-    Json,
-    _dict,
-    _did_you_mean,
-    _err,
-    _fixable,
-    _is_int,
-    _is_num,
-    _list,
-    _ptr,
-    _q,
-    _str,
-    _warn,
-)
+from agspec.ir.validate.common import MAX_CYCLES, Json, _dict, _did_you_mean, _err, _fixable, _is_int, _is_num, _list
+from agspec.ir.validate.common import _ptr, _q, _str, _warn
 from agspec.ir.validate.material import check_material, route_graph, route_ops, routes
 from agspec.ir.validate.view import _Op, _RecipeView, recipe_view
 

@@ -10,21 +10,8 @@ from typing import Mapping
 from agspec.formats.diagnostics import Issue
 from agspec.ir import topology, variants
 from agspec.ir.fingerprint import FingerprintError, fingerprint
-from agspec.ir.validate.common import (
-    Json,
-    Resolver,
-    _dict,
-    _did_you_mean,
-    _err,
-    _fixable,
-    _is_int,
-    _is_num,
-    _list,
-    _ptr,
-    _q,
-    _str,
-    _warn,
-)
+from agspec.ir.validate.common import Json, Resolver, _dict, _did_you_mean, _err, _fixable, _is_int, _is_num, _list
+from agspec.ir.validate.common import _ptr, _q, _str, _warn
 from agspec.ir.validate.recipe import arity_of, recipe_view
 from agspec.resources import catalogue_dir
 
