@@ -1,6 +1,6 @@
 """F-VALUES / RES-INTEGRAL-ACTIONS, the full run: every reader of an action or an integer (a policy's
 joint action, a process policy's reply, requests to ``agspec serve``, traces, reproducers, results
-bundles) given its documents with every number re-spelt (verdict unchanged) and with an action that
+bundles, IR files) given its documents with every number re-spelt (verdict unchanged) and with an action that
 is not one (refused, located).  The generator is tests/value_readers.py; tests/test_value_rule.py
 runs a bounded share.
 

@@ -5,7 +5,7 @@ Each reader is given a message or a file it accepts, with every number re-spelt 
 message with one action replaced by a value that is not an action (``2.5``, ``true``, ``"2"``) — it
 must be refused, by the reader's own error, with the place named.  Readers: a policy's joint action
 (``check_joint``), a process policy's reply (tests/fakes/policy_process.py), the requests of
-``agspec serve``, trace files, reproducer files and results bundles.
+``agspec serve``, trace files, reproducer files, IR files and results bundles.
 
 :func:`cases` yields ``(reader, label, ok)``; tests/test_value_rule.py runs a bounded share,
 benchmarks/fuzz_values.py all of them.
@@ -26,6 +26,7 @@ from agspec.conform.impl.serve import Server
 from agspec.conform.repro import ReproError, load_reproducer, make_reproducer
 from agspec.evaluate import Job, run_job
 from agspec.formats.protocol import PROTOCOL
+from agspec.load import load_document
 from agspec.policy.bundle import BundleError, read_bundle
 from agspec.policy.contract import PolicyError, parse_policy
 from agspec.policy.episode import check_joint
@@ -157,6 +158,13 @@ class Readers:
             and _serve(self.requests[:1] + [{**self.requests[1], "instance": got["instance"]}] + self.requests[2:]) \
             == self.replies
 
+    def ir_respelt(self, rng: random.Random) -> tuple[str, bool]:
+        path = self.dir / "spelt.instance.json"
+        path.write_bytes(dump(respelt(self.instance, rng)))
+        doc = load_document(path)
+        replayed = _serve(self.requests[:1] + [{**self.requests[1], "instance": doc.ir}] + self.requests[2:])
+        return "IR file", not doc.diagnostics and replayed == self.replies
+
     def bundle_respelt(self, rng: random.Random) -> tuple[str, bool]:
         path = self.dir / "spelt.json"
         path.write_bytes(dump(respelt(json.loads(self.bundle_text), rng)))
@@ -228,12 +236,12 @@ class Readers:
 
 
 RESPELT: list[Callable] = [Readers.joint_respelt, Readers.serve_respelt, Readers.trace_respelt,
-                           Readers.repro_respelt, Readers.bundle_respelt]
+                           Readers.repro_respelt, Readers.ir_respelt, Readers.bundle_respelt]
 REFUSES: list[Callable] = [Readers.joint_refuses, Readers.serve_refuses, Readers.trace_refuses,
                            Readers.repro_refuses, Readers.bundle_refuses]
 
 
-_NAMES = {"joint": "check_joint", "serve": "agspec serve", "trace": "trace", "repro": "reproducer",
+_NAMES = {"ir": "IR file", "joint": "check_joint", "serve": "agspec serve", "trace": "trace", "repro": "reproducer",
           "bundle": "bundle", "process": "process policy"}
 
 
