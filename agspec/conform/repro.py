@@ -18,7 +18,7 @@ from agspec.formats import limits
 from agspec.formats.actions import NotAnAction, action_value
 from agspec.formats.schemas import self_check
 from agspec.formats.values import integer
-from agspec.ir.schemas import integers_of, validate_schema
+from agspec.ir.schemas import ir_integers, validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
 
@@ -103,7 +103,7 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
     problems = [i for i in validate_schema(inst) if i.severity == "error"]
     if problems:
         raise ReproError(f"{path}: /instance{problems[0].pointer}: {problems[0].message} [{problems[0].code}]")
-    integers_of(inst)  # RES-INTEGRAL-NUMBERS
+    ir_integers(inst)  # RES-INTEGRAL-NUMBERS
     actions = data.get("actions")
     if not isinstance(actions, list) or not all(isinstance(a, dict) for a in actions):
         raise ReproError(f"{path}: /actions must be a list of joint actions {{robot id: integer}}")
@@ -147,7 +147,7 @@ def _check_history(path: Path, history: Any) -> None:
         if problems:
             raise ReproError(f"{path}: /history/instances/{k}{problems[0].pointer}: {problems[0].message} "
                              f"[{problems[0].code}]")
-        integers_of(inst)
+        ir_integers(inst)
     n = len(history["instances"])
     for k, req in enumerate(history["requests"]):
         cmd = req.get("cmd") if isinstance(req, dict) else None

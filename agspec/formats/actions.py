@@ -126,4 +126,5 @@ def describe(action: int) -> str:
 
 
 __all__ = ["N_ACTIONS", "IDLE", "DELIVER", "PICK0", "PICK_SLOTS", "HANDOFF0", "RECEIVE0", "OP0", "OP_SLOTS",
-           "DIRECTION_NAMES", "IllegalAction", "NotAnAction", "action_value", "symbolic", "resolve", "option_ids", "is_idle", "describe"]
+           "DIRECTION_NAMES", "IllegalAction", "NotAnAction", "action_value", "symbolic", "resolve", "option_ids",
+           "is_idle", "describe"]

@@ -36,7 +36,7 @@ def validate_schema(ir: Any) -> list[Issue]:
     return list(iter_issues(kind, ir))
 
 
-def integers_of(ir: Any) -> Any:
+def ir_integers(ir: Any) -> Any:
     """F-VALUES, RES-INTEGRAL-NUMBERS: ``ir`` with every integral number at a position its kind's schema
     types integer made the integer (``1.0`` is the radius 1), in place — what a reader does after
     :func:`validate_schema`, so that the interpreter sees one value whatever the writer's JSON
@@ -46,4 +46,4 @@ def integers_of(ir: Any) -> Any:
     return ir
 
 
-__all__ = ["KINDS", "SCHEMA_IDS", "integers_of", "validate_schema", "load_schema", "validator"]
+__all__ = ["KINDS", "SCHEMA_IDS", "ir_integers", "validate_schema", "load_schema", "validator"]

@@ -27,7 +27,7 @@ from agspec.formats.values import integer
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
-from agspec.ir.schemas import integers_of, validate_schema
+from agspec.ir.schemas import ir_integers, validate_schema
 
 IMPLEMENTATION = {"name": "agspec-reference", "version": __version__, "language": "python"}
 
@@ -88,7 +88,7 @@ class Server:
         if problems:
             first = problems[0]
             raise RequestError("invalid_instance", f"{first.pointer or '/'}: {first.message} [{first.code}]")
-        integers_of(instance)  # RES-INTEGRAL-NUMBERS: a radius of 1.0 is the radius 1
+        ir_integers(instance)  # RES-INTEGRAL-NUMBERS: a radius of 1.0 is the radius 1
         try:
             sim = Simulator(instance)
         except Exception as exc:
