@@ -1,22 +1,23 @@
 """F-VALUES / RES-INTEGRAL-ACTIONS, the full run: every reader of an action or an integer (a policy's
 joint action, a process policy's reply, requests to ``agspec serve``, traces, reproducers, results
-bundles, IR files) given its documents with every number re-spelt (verdict unchanged) and with an action that
+bundles, IR files, training records) given its documents with every number re-spelt (verdict unchanged) and with an action that
 is not one (refused, located).  The generator is tests/value_readers.py; tests/test_value_rule.py
 runs a bounded share.
 
     python benchmarks/fuzz_values.py [--n 200] [--seed 0]
 
-Figures (``--n 200 --seed 0``, 1231 cases; before: main at 5f8db07, run with PYTHONPATH at its tree):
+Figures (``--n 200 --seed 0``, 1431 cases; before: main at 5f8db07, run with PYTHONPATH at its tree):
 
     reader           tried  wrong before -> after
     agspec serve       205       205     ->   0   (2.0 refused as bad_actions; a respelt instance failed to load)
-    bundle             205       185     ->   0   (integers read as floats)
+    bundle             205       174     ->   0   (integers read as floats)
     check_joint        205       200     ->   0   (0.0 is bad_action)
     process policy       6         1     ->   0   (a policy writing 2.0 got bad_action)
     reproducer         205       205     ->   0   (2.0 refused; refusals not located)
     trace              205         0     ->   0   (already read through the shape)
     IR file            200       200     ->   0   (a radius of 1.0 refused by the interpreter)
-    total             1231       996     ->   0
+    training record    200       200     ->   0   (counts read as floats)
+    total             1431      1185     ->   0
 """
 
 from __future__ import annotations

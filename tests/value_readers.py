@@ -5,7 +5,7 @@ Each reader is given a message or a file it accepts, with every number re-spelt 
 message with one action replaced by a value that is not an action (``2.5``, ``true``, ``"2"``) — it
 must be refused, by the reader's own error, with the place named.  Readers: a policy's joint action
 (``check_joint``), a process policy's reply (tests/fakes/policy_process.py), the requests of
-``agspec serve``, trace files, reproducer files, IR files and results bundles.
+``agspec serve``, trace files, reproducer files, IR files, results bundles and training records.
 
 :func:`cases` yields ``(reader, label, ok)``; tests/test_value_rule.py runs a bounded share,
 benchmarks/fuzz_values.py all of them.
@@ -31,6 +31,7 @@ from agspec.policy.bundle import BundleError, read_bundle
 from agspec.policy.contract import PolicyError, parse_policy
 from agspec.policy.episode import check_joint
 from agspec.trace.read import read_trace
+from agspec.train.record import read_record
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -165,6 +166,17 @@ class Readers:
         replayed = _serve(self.requests[:1] + [{**self.requests[1], "instance": doc.ir}] + self.requests[2:])
         return "IR file", not doc.diagnostics and replayed == self.replies
 
+    def record_respelt(self, rng: random.Random) -> tuple[str, bool]:
+        # a training record (T-RECORD) as tests/test_trained_rows.py fakes one: counts are integers
+        rows = [{"kind": "header", "schema": "agspec-training-record/1", "budget": 3000}] + [
+            {"kind": "progress", "steps": 1000 * k, "episodes": k, "milestone_return": 1.5 * k, "admissions": 1.0,
+             "delivered": 2.0 * k, "entropy": 1.0 / k, "explained_variance": 0.1 * k} for k in range(1, 4)]
+        path = self.dir / "record.jsonl"
+        path.write_bytes(b"\n".join(dump(respelt(r, rng)) for r in rows) + b"\n")
+        got = list(read_record(path))
+        return "training record", [(r["steps"], type(r["steps"])) for r in got[1:]] == \
+            [(r["steps"], int) for r in rows[1:]] and got == rows
+
     def bundle_respelt(self, rng: random.Random) -> tuple[str, bool]:
         path = self.dir / "spelt.json"
         path.write_bytes(dump(respelt(json.loads(self.bundle_text), rng)))
@@ -236,12 +248,13 @@ class Readers:
 
 
 RESPELT: list[Callable] = [Readers.joint_respelt, Readers.serve_respelt, Readers.trace_respelt,
-                           Readers.repro_respelt, Readers.ir_respelt, Readers.bundle_respelt]
+                           Readers.repro_respelt, Readers.ir_respelt, Readers.bundle_respelt,
+                           Readers.record_respelt]
 REFUSES: list[Callable] = [Readers.joint_refuses, Readers.serve_refuses, Readers.trace_refuses,
                            Readers.repro_refuses, Readers.bundle_refuses]
 
 
-_NAMES = {"ir": "IR file", "joint": "check_joint", "serve": "agspec serve", "trace": "trace", "repro": "reproducer",
+_NAMES = {"record": "training record", "ir": "IR file", "joint": "check_joint", "serve": "agspec serve", "trace": "trace", "repro": "reproducer",
           "bundle": "bundle", "process": "process policy"}
 
 
