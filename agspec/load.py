@@ -35,7 +35,7 @@ from agspec.dsl.build import DSL_SPELLING, build
 from agspec.dsl.parse import parse
 from agspec.formats import limits, positions
 from agspec.formats.diagnostics import Diagnostic, Issue, Span, json_pointer, locate
-from agspec.ir.schemas import KINDS, validate_schema
+from agspec.ir.schemas import KINDS, ir_integers, validate_schema
 from agspec.resources import catalogue_dir
 from agspec.suggest import Change, Fix, closest, line_removal
 
@@ -266,6 +266,7 @@ def load_json(text: str, file: str | None = None) -> Document:
                       hint="`kind` must be one of " + ", ".join(KINDS))
         diags.append(locate(issue, file, srcmap))
         kind = None
+    ir_integers(ir)  # F-VALUES, RES-INTEGRAL-NUMBERS: `"radius": 1.0` is the radius 1
     return Document(path=path, kind=kind, ir=ir, srcmap=srcmap, text=text, diagnostics=tuple(diags))
 
 

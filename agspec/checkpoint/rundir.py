@@ -22,6 +22,7 @@ from typing import Any, Iterator, Mapping
 from agspec.formats import output
 from agspec.formats.digest import file_sha256
 from agspec.formats.limits import InputError, load_json
+from agspec.formats.schemas import integers_of
 
 RUN_SCHEMA = "agspec-training-run/1"
 CONFIG, SUMMARY, RECORD, CHECKPOINT, POLICY, LOCK = (
@@ -58,7 +59,7 @@ def read_summary(run_dir: str | os.PathLike) -> dict[str, Any]:
     data = read_json(path)
     if not isinstance(data, dict) or data.get("schema") != RUN_SCHEMA:
         raise RunDirError(f"{path}: not a training run summary (schema {RUN_SCHEMA} expected)")
-    return data
+    return integers_of("training-run", data)  # F-VALUES, RES-INTEGRAL-NUMBERS
 
 
 def is_complete(out_dir: str | os.PathLike) -> bool:

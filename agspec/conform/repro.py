@@ -15,8 +15,10 @@ from typing import Any, Mapping, Sequence
 
 from agspec import __version__
 from agspec.formats import limits, output
+from agspec.formats.actions import NotAnAction, action_value
 from agspec.formats.schemas import self_check
-from agspec.ir.schemas import validate_schema
+from agspec.formats.values import integer
+from agspec.ir.schemas import ir_integers, validate_schema
 
 REPRO_FORMAT = "agspec-repro/1"
 
@@ -98,20 +100,34 @@ def load_reproducer(path: str | Path) -> dict[str, Any]:
     problems = [i for i in validate_schema(inst) if i.severity == "error"]
     if problems:
         raise ReproError(f"{path}: /instance{problems[0].pointer}: {problems[0].message} [{problems[0].code}]")
+    ir_integers(inst)  # RES-INTEGRAL-NUMBERS
     actions = data.get("actions")
-    if not isinstance(actions, list) or not all(
-        isinstance(a, dict) and all(isinstance(k, str) and isinstance(v, int) and not isinstance(v, bool)
-                                    for k, v in a.items()) for a in actions):
+    if not isinstance(actions, list) or not all(isinstance(a, dict) for a in actions):
         raise ReproError(f"{path}: /actions must be a list of joint actions {{robot id: integer}}")
+    for k, joint in enumerate(actions):
+        _actions_in_place(path, f"/actions/{k}", joint)
     seed = data.get("execution_seed")
-    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
-        raise ReproError(f"{path}: /execution_seed must be an integer or null")
+    if seed is not None:  # RES-INTEGRAL-NUMBERS: 7.0 is the seed 7
+        data["execution_seed"] = seed = integer(seed)
+        if seed is None:
+            raise ReproError(f"{path}: /execution_seed must be an integer or null")
     exps = data.get("expectations", [])
-    if not isinstance(exps, list) or not all(isinstance(e, dict) and isinstance(e.get("after_tick"), int)
+    if not isinstance(exps, list) or not all(isinstance(e, dict) and integer(e.get("after_tick")) is not None
                                              for e in exps):
         raise ReproError(f"{path}: /expectations must be a list of case expectations with `after_tick`")
+    for e in exps:
+        e["after_tick"] = integer(e["after_tick"])
     _check_history(path, data.get("history"))
     return data
+
+
+def _actions_in_place(path: Path, where: str, joint: dict) -> None:
+    """A joint action {robot id: action} read by RES-INTEGRAL-ACTIONS (2.0 is the action 2), in place."""
+    for robot, a in joint.items():
+        try:
+            joint[robot] = action_value(a)
+        except NotAnAction as exc:
+            raise ReproError(f"{path}: {where}/{robot}: {exc}") from None
 
 
 def _check_history(path: Path, history: Any) -> None:
@@ -128,18 +144,22 @@ def _check_history(path: Path, history: Any) -> None:
         if problems:
             raise ReproError(f"{path}: /history/instances/{k}{problems[0].pointer}: {problems[0].message} "
                              f"[{problems[0].code}]")
+        ir_integers(inst)
     n = len(history["instances"])
     for k, req in enumerate(history["requests"]):
         cmd = req.get("cmd") if isinstance(req, dict) else None
-        ok = (cmd == "load" and isinstance(req.get("instance"), int) and not isinstance(req.get("instance"), bool)
-              and 0 <= req["instance"] < n) \
-            or (cmd == "reset" and (req.get("execution_seed") is None
-                                    or (isinstance(req.get("execution_seed"), int)
-                                        and not isinstance(req.get("execution_seed"), bool)))) \
-            or (cmd == "step" and isinstance(req.get("actions"), dict)
-                and all(isinstance(v, int) and not isinstance(v, bool) for v in req["actions"].values()))
+        index, seed = (integer(req.get("instance")), integer(req.get("execution_seed"))) if cmd else (None, None)
+        ok = (cmd == "load" and index is not None and 0 <= index < n) \
+            or (cmd == "reset" and (req.get("execution_seed") is None or seed is not None)) \
+            or (cmd == "step" and isinstance(req.get("actions"), dict))
         if not ok:
             raise ReproError(f"{path}: /history/requests/{k} must be a load (instance index), reset or step request")
+        if cmd == "load":  # RES-INTEGRAL-NUMBERS: read as the integers they are
+            req["instance"] = index
+        elif cmd == "reset" and seed is not None:
+            req["execution_seed"] = seed
+        elif cmd == "step":
+            _actions_in_place(path, f"/history/requests/{k}/actions", req["actions"])
 
 
 __all__ = ["REPRO_FORMAT", "ReproError", "history_record", "load_reproducer", "make_reproducer", "save_reproducer"]

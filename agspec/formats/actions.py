@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
+from agspec.formats.values import integer
+
 # O-ACTION-ENCODING
 N_ACTIONS = 114
 IDLE, DELIVER = 0, 1
@@ -25,6 +27,29 @@ DIRECTIONS: tuple[tuple[int, int], ...] = ((-1, 0), (-1, 1), (0, 1), (1, 1), (1,
 
 class IllegalAction(ValueError):
     """F-SYMBOLIC-ACTIONS: a symbolic action that cannot be resolved at this tick."""
+
+
+class NotAnAction(ValueError):
+    """RES-INTEGRAL-ACTIONS: a JSON value that is not an action (not an integral number)."""
+
+
+def action_value(value: Any) -> int:
+    """RES-INTEGRAL-ACTIONS: the action a JSON value names — an integral number (``2``, ``2.0``, ``2e0``
+    are the action 2); :class:`NotAnAction` for anything else (``2.5``, ``true``, ``"2"``, null).
+
+    The range is the reader's to judge: a simulator replaces an out-of-range action by idle
+    (R-ACTION-VALIDATION), a policy's is ``bad_action`` (F-POLICY-ERRORS).  Every reader of an action
+    in a message or a file calls this one function (F-VALUES)."""
+    if type(value) not in (bool, int, float) and hasattr(value, "item"):  # NumPy scalars, 0-d arrays
+        try:
+            value = value.item()
+        except (TypeError, ValueError):
+            pass
+    found = integer(value)
+    if found is None:
+        shown = repr(value) if not isinstance(value, str) else '"' + value[:30] + '"'
+        raise NotAnAction(f"{shown[:40]} is not an action: an action is an integral number (RES-INTEGRAL-ACTIONS)")
+    return found
 
 
 def symbolic(action: int, picks: Sequence[str] = (), operations: Sequence[str] = ()) -> Any:
@@ -50,10 +75,11 @@ def resolve(action: Any, picks: Sequence[str] | None, operations: Sequence[str] 
     Raises :class:`IllegalAction` for a pick or support option not offered (F-SYMBOLIC-ACTIONS) and
     for anything that is not an action.
     """
-    if isinstance(action, bool):
-        raise IllegalAction(f"{action!r} is not an action")
-    if isinstance(action, int):
-        return action
+    if isinstance(action, (bool, int, float)):
+        try:
+            return action_value(action)
+        except NotAnAction as exc:
+            raise IllegalAction(str(exc)) from None
     if action == "idle":
         return IDLE
     if action == "deliver":
@@ -100,4 +126,5 @@ def describe(action: int) -> str:
 
 
 __all__ = ["N_ACTIONS", "IDLE", "DELIVER", "PICK0", "PICK_SLOTS", "HANDOFF0", "RECEIVE0", "OP0", "OP_SLOTS",
-           "DIRECTION_NAMES", "IllegalAction", "symbolic", "resolve", "option_ids", "is_idle", "describe"]
+           "DIRECTION_NAMES", "IllegalAction", "NotAnAction", "action_value", "symbolic", "resolve", "option_ids",
+           "is_idle", "describe"]

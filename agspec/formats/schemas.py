@@ -16,13 +16,14 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Iterable, Mapping
 
-from jsonschema import Draft202012Validator
+from jsonschema import Draft202012Validator, validators
 from jsonschema.exceptions import ValidationError, best_match, relevance
 from referencing import Registry, Resource
 
 from agspec.formats.diagnostics import Issue
 from agspec.formats.pointer import join as json_pointer
 from agspec.formats.pointer import parse as parse_pointer
+from agspec.formats.values import integer
 from agspec.resources import schemas_dir
 from agspec.suggest import Change, closest
 
@@ -127,6 +128,40 @@ def inlined(name: str) -> dict[str, Any]:
 def validator(name: str) -> Draft202012Validator:
     """The compiled validator of schema ``name`` (see :func:`schema_id`), references inlined."""
     return Draft202012Validator(inlined(name), registry=registry())
+
+
+@lru_cache(maxsize=None)
+def _integers_only(name: str) -> Draft202012Validator:
+    """Schema ``name`` with `integer` meaning an int: its type errors are the integral floats to read."""
+    strict = Draft202012Validator.TYPE_CHECKER.redefine(
+        "integer", lambda _checker, v: isinstance(v, int) and not isinstance(v, bool))
+    return validators.extend(Draft202012Validator, type_checker=strict)(inlined(name), registry=registry())
+
+
+def integers_of(name: str, doc: Any) -> Any:
+    """F-VALUES, RES-INTEGRAL-NUMBERS: ``doc`` with every integral float at a position schema ``name``
+    types integer made the integer (:func:`agspec.formats.values.integer`), in place — for documents
+    whose schema has unions (a results bundle, a training record); a shaped schema's readers use
+    :func:`agspec.formats.shape.conform`, the same rule in one walk.  Anything else stays for the
+    validation to judge."""
+    for _ in range(4):  # a member under a union the first pass could not see past
+        spots = []
+        stack = list(_integers_only(name).iter_errors(doc))
+        while stack:
+            error = stack.pop()
+            stack.extend(error.context or ())
+            wanted = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+            if error.validator == "type" and "integer" in wanted and type(error.instance) is float \
+                    and integer(error.instance) is not None and error.absolute_path:
+                spots.append(tuple(error.absolute_path))
+        if not spots:
+            break
+        for path in spots:
+            node = doc
+            for key in path[:-1]:
+                node = node[key]
+            node[path[-1]] = integer(node[path[-1]])
+    return doc
 
 
 _TYPE_WORDS = ((bool, "a boolean"), (int, "an integer"), (float, "a number"), (str, "a string"), (list, "an array"),
@@ -297,5 +332,5 @@ def self_check(name: str, doc: Any) -> None:
                           + "; ".join(str(p) for p in problems))
 
 
-__all__ = ["SELF_CHECK", "SchemaDrift", "self_check", "documents", "registry", "schema_id", "load_schema", "inlined", "validator", "issues", "sort_key", "iter_issues",
+__all__ = ["integers_of", "SELF_CHECK", "SchemaDrift", "self_check", "documents", "registry", "schema_id", "load_schema", "inlined", "validator", "issues", "sort_key", "iter_issues",
            "SchemaProblem", "validate", "json_type", "show_value"]

@@ -33,9 +33,9 @@ from typing import Any, Callable
 from agspec.formats.jsonl import MAX_DEPTH, depth
 from agspec.formats.pointer import join as json_pointer
 from agspec.formats.schemas import SELF_CHECK, SchemaDrift, inlined, json_type
+from agspec.formats.values import MAX_SAFE_INTEGER, integer
 
 # F-VALUES: the interoperable integer range of I-JSON (RFC 7493 §2.2), exact in binary64
-MAX_SAFE_INTEGER = 2**53 - 1
 
 _PY = {"integer": (int,), "number": (int, float), "string": (str,), "boolean": (bool,), "null": (type(None),),
        "array": (list,), "object": (dict,)}
@@ -331,8 +331,8 @@ def _expected(s: Shape) -> str:
 
 
 def _integral(v: Any) -> bool:
-    """F-VALUES: a float that is an integer (integral, within ±(2^53 − 1))."""
-    return type(v) is float and v.is_integer() and -MAX_SAFE_INTEGER <= v <= MAX_SAFE_INTEGER
+    """F-VALUES: a float that is an integer (RES-INTEGRAL-NUMBERS, :func:`agspec.formats.values.integer`)."""
+    return type(v) is float and integer(v) is not None
 
 
 def _locate(value: Any, shape: Shape) -> Problem | None:

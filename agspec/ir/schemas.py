@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from agspec.formats import shape
 from agspec.formats.diagnostics import Issue
 from agspec.formats.schemas import iter_issues, json_type, load_schema, show_value, validator
 
@@ -35,4 +36,14 @@ def validate_schema(ir: Any) -> list[Issue]:
     return list(iter_issues(kind, ir))
 
 
-__all__ = ["KINDS", "SCHEMA_IDS", "validate_schema", "load_schema", "validator"]
+def ir_integers(ir: Any) -> Any:
+    """F-VALUES, RES-INTEGRAL-NUMBERS: ``ir`` with every integral number at a position its kind's schema
+    types integer made the integer (``1.0`` is the radius 1), in place — what a reader does after
+    :func:`validate_schema`, so that the interpreter sees one value whatever the writer's JSON
+    library wrote.  Anything else stays for the validation to judge."""
+    if isinstance(ir, dict) and ir.get("kind") in SCHEMA_IDS:
+        shape.conform(ir, ir["kind"])
+    return ir
+
+
+__all__ = ["KINDS", "SCHEMA_IDS", "ir_integers", "validate_schema", "load_schema", "validator"]

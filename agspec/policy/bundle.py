@@ -18,7 +18,7 @@ from typing import Any, Iterable, Mapping
 
 from agspec import SPEC_VERSION, __version__
 from agspec.formats import limits, output
-from agspec.formats.schemas import self_check
+from agspec.formats.schemas import integers_of, self_check, validate
 from agspec.policy.coverage import Planned, merge, planned_entries, planned_of_bundle
 from agspec.policy.trained import with_action
 
@@ -111,8 +111,6 @@ def _recover(text: str) -> dict[str, Any] | None:
 def read_bundle(path: str | Path) -> dict[str, Any]:
     """A results bundle, schema-checked; an interrupted one is recovered (``complete: false``).
     Read within the F-LIMITS limits (size, UTF-8, values, depth, duplicate keys)."""
-    from agspec.formats.schemas import validate
-
     path = Path(path)
     try:
         text = limits.read_text(path)
@@ -129,7 +127,7 @@ def read_bundle(path: str | Path) -> dict[str, Any]:
     problems = validate("results", doc, limit=1)
     if problems:
         raise BundleError(f"{path}{problems[0].pointer}: {problems[0].message}")
-    return doc
+    return integers_of("results", doc)  # F-VALUES, RES-INTEGRAL-NUMBERS: an index of 2.0 is the index 2
 
 
 def combine(bundles: list[tuple[str, Mapping[str, Any]]]) -> dict[str, Any]:

@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
+from agspec.formats.actions import NotAnAction, action_value
 from agspec.interp.observe import N_ACTIONS
 from agspec.interp.snapshot import global_state
 from agspec.ir.fingerprint import fingerprint
@@ -53,13 +54,12 @@ def check_joint(raw: Any, agents: list[str], t: int) -> dict[str, int]:
     for agent in agents:
         if agent not in raw:  # RES-POLICY-MISSING-AGENT: unlike A-PZ-STEP, never an implicit idle
             raise PolicyError("missing_agent", f"no action for agent {agent!r}", tick=t, agent=agent)
-        value = raw[agent]
-        if hasattr(value, "item") and not isinstance(value, (bool, int)):  # NumPy scalars and 0-d arrays
-            try:
-                value = value.item()
-            except (TypeError, ValueError):
-                pass
-        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < N_ACTIONS:
+        try:  # RES-INTEGRAL-ACTIONS: 2, 2.0 and 2e0 are the action 2 (F-VALUES)
+            value = action_value(raw[agent])
+        except NotAnAction as exc:
+            raise PolicyError("bad_action", f"agent {agent!r}: {exc}; an action is an integer in 0..{N_ACTIONS - 1}",
+                              tick=t, agent=agent) from None
+        if not 0 <= value < N_ACTIONS:
             raise PolicyError("bad_action", f"action {value!r} of agent {agent!r} is not an integer in "
                                             f"0..{N_ACTIONS - 1}", tick=t, agent=agent)
         joint[agent] = value

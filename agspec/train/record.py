@@ -17,7 +17,9 @@ from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
+from agspec.formats.limits import InputError, iter_json_lines
 from agspec.formats.output import OutputError
+from agspec.formats.schemas import integers_of
 
 RECORD_SCHEMA = "agspec-training-record/1"
 EPISODE_KEYS = ("milestone_return", "admissions", "delivered", "length")
@@ -62,13 +64,12 @@ class Record:
 
 
 def read_record(path: Path) -> Iterator[dict[str, Any]]:
-    """The rows of a training record (bounded reading, F-LIMITS); a bad line raises InputError."""
-    from agspec.formats.limits import InputError, iter_json_lines
-
+    """The rows of a training record (bounded reading, F-LIMITS); a bad line raises InputError.  F-VALUES,
+    RES-INTEGRAL-NUMBERS: a count written ``2.0`` is read as the integer 2."""
     for _lineno, value in iter_json_lines(path):
         if isinstance(value, InputError):
             raise value
-        yield value
+        yield integers_of("training-record", value)
 
 
 def without_wall_time(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:

@@ -1,7 +1,8 @@
 """A policy process for tests/test_policy.py: plays the highest legal action; misbehaves on demand.
 
 argv[1] = mode: ok | crash (exit 3 at tick 3) | garbage (non-JSON at tick 3) | hang (at tick 3) |
-wrong-seq | no-handshake.  With a second argument, writes its pid there (to check teardown).  With
+wrong-seq | no-handshake | respelt (every action written another way: ``6.0``, ``6e0``, ``60e-1``;
+F-VALUES) | as:TEXT (every action written as the JSON text TEXT, e.g. ``as:2.5``).  With a second argument, writes its pid there (to check teardown).  With
 ``AGSPEC_LEAK=HOW:TAG`` in the environment, it leaves a helper process behind at start
 (tests/fakes/helpers.py).
 """
@@ -38,6 +39,13 @@ for line in sys.stdin:
             if mode == "wrong-seq":
                 reply["seq"] = "nope"
         reply["actions"] = {a: max(k for k, ok in enumerate(o["mask"]) if ok) for a, o in msg["observations"].items()}
-    print(json.dumps(reply), flush=True)
+    spelt = reply.pop("actions", None) if mode == "respelt" or mode.startswith("as:") else None
+    text = json.dumps(reply)
+    if spelt is not None:
+        forms = ["{0}.0", "{0}e0", "{1}e-1", "{0}.000", "{0}E0"]
+        text = text[:-1] + ', "actions": {' + ", ".join(
+            f"{json.dumps(a)}: {mode[3:] if mode.startswith('as:') else forms[(k + msg['t']) % 5].format(v, v * 10)}"
+            for k, (a, v) in enumerate(spelt.items())) + "}}"
+    print(text, flush=True)
     if msg["cmd"] == "stop":
         break

@@ -20,12 +20,14 @@ import traceback
 from typing import IO, Any, Mapping
 
 from agspec import __version__
+from agspec.formats.actions import NotAnAction, action_value
 from agspec.formats.jsonl import compact_bytes
 from agspec.formats.protocol import PROTOCOL, encode, error_reply, loads
+from agspec.formats.values import integer
 from agspec.interp.observe import SlotOverflow
 from agspec.interp.snapshot import global_state
 from agspec.interp.tick import Simulator
-from agspec.ir.schemas import validate_schema
+from agspec.ir.schemas import ir_integers, validate_schema
 
 IMPLEMENTATION = {"name": "agspec-reference", "version": __version__, "language": "python"}
 
@@ -86,6 +88,7 @@ class Server:
         if problems:
             first = problems[0]
             raise RequestError("invalid_instance", f"{first.pointer or '/'}: {first.message} [{first.code}]")
+        ir_integers(instance)  # RES-INTEGRAL-NUMBERS: a radius of 1.0 is the radius 1
         try:
             sim = Simulator(instance)
         except Exception as exc:
@@ -110,8 +113,10 @@ class Server:
         if self.sim is None:
             raise RequestError("not_loaded", "`reset` before `load`")
         seed = msg.get("execution_seed")
-        if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
-            raise RequestError("bad_request", "`execution_seed` must be an integer or null")
+        if seed is not None:  # RES-INTEGRAL-NUMBERS: 7.0 is the seed 7
+            seed = integer(seed)
+            if seed is None:
+                raise RequestError("bad_request", "`execution_seed` must be an integer or null")
         self.was_reset = False
         try:
             self.sim.reset(seed)
@@ -130,11 +135,15 @@ class Server:
         if not isinstance(actions, dict):
             raise RequestError("bad_actions", "`actions` must be an object: robot id -> action integer")
         robots = set(self.sim.agents())
+        checked: dict[str, int] = {}
         for robot, a in actions.items():
             if robot not in robots:
                 raise RequestError("bad_actions", f"no robot {robot!r} in this instance")
-            if not isinstance(a, int) or isinstance(a, bool):
-                raise RequestError("bad_actions", f"the action of robot {robot} must be an integer, found {a!r}")
+            try:  # RES-INTEGRAL-ACTIONS: 2.0 is the action 2; out of range, R-ACTION-VALIDATION makes it idle
+                checked[robot] = action_value(a)
+            except NotAnAction as exc:
+                raise RequestError("bad_actions", f"/actions/{robot}: {exc}") from None
+        actions = checked
         try:
             result = self.sim.step(actions)
         except SlotOverflow as exc:  # RES-SLOT-OVERFLOW-STATE: the state reached cannot be acted on
