@@ -24,7 +24,8 @@ def parser(description: str, default_out: str, *, copies: bool = False) -> argpa
     ap.add_argument("--max-cycles", type=int, default=None, help="shorter training episodes (smoke runs)")
     ap.add_argument("--jobs", type=int, default=1, help="evaluation workers")
     ap.add_argument("--eval-indices", default="200-204", help="validation indices to evaluate on")
-    ap.add_argument("--threads", type=int, default=1, help="torch threads of the learner")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="torch threads of the learner (default: the budget, CAMP-THREADS)")
     ap.add_argument("-o", "--output", dest="out", type=Path, default=Path(default_out))
     return ap
 

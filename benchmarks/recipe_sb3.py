@@ -31,6 +31,7 @@ from sb3_contrib import MaskablePPO
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 import recipe_common
+from agspec import threads
 from agspec.pettingzoo import coalition_milestone_v1, parallel_env
 
 HERE = Path(__file__).resolve().parent
@@ -74,7 +75,7 @@ def make_env(scenario: str, seed: int, env_steps: int, copies: int, max_cycles: 
 
 
 def train(args: argparse.Namespace) -> dict:
-    torch.set_num_threads(args.threads)
+    threads.apply(threads.budget(1, args.threads))  # CAMP-THREADS; the evaluation's hosts inherit it
     venv, agents = make_env(args.scenario, args.seed, args.env_steps, args.copies, args.max_cycles)
     samples = args.env_steps * agents  # SB3 counts one timestep per robot and copy
     n_steps = max(8, args.rollout // args.copies)  # env steps per copy per rollout

@@ -10,10 +10,11 @@ binds it to the episode.  Every robot's action is the masked argmax of the share
 import os
 
 import numpy as np
-import torch
 from sb3_contrib import MaskablePPO
 
-torch.set_num_threads(1)  # one worker, one core: agspec's -j N runs N workers
+from agspec import threads
+
+threads.apply_inherited()  # CAMP-THREADS: the host's budget (agspec's -j N runs N workers)
 MODEL = MaskablePPO.load(os.environ.get("AGSPEC_SB3_MODEL", "runs/sb3/model.zip"), device="cpu")
 
 

@@ -41,6 +41,7 @@ from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 from torchrl.modules import MaskedCategorical, ProbabilisticActor, ValueOperator
 from torchrl.objectives import ClipPPOLoss, ValueEstimators
 
+from agspec import threads
 from agspec.pettingzoo import coalition_milestone_v1, parallel_env
 
 HERE = Path(__file__).resolve().parent
@@ -63,7 +64,7 @@ def make_env(scenario: str, seed: int, env_steps: int, max_cycles: int | None) -
 
 def train(args: argparse.Namespace) -> dict:
     torch.manual_seed(args.seed)
-    torch.set_num_threads(args.threads)
+    threads.apply(threads.budget(1, args.threads))  # CAMP-THREADS; the evaluation's hosts inherit it
     env = make_env(args.scenario, args.seed, args.env_steps, args.max_cycles)
     agents = len(env.group_map[GROUP])
     actor_net = TensorDictModule(actor_network(), in_keys=[OBS], out_keys=[(GROUP, "logits")])

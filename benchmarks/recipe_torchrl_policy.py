@@ -12,6 +12,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from agspec import threads
+
 OBS_DIM, N_ACTIONS = 1566, 114
 
 
@@ -22,7 +24,7 @@ def actor_network() -> nn.Module:
 
 
 if __name__ != "__main__" and os.environ.get("AGSPEC_TORCHRL_ACTOR"):
-    torch.set_num_threads(1)  # one worker, one core: agspec's -j N runs N workers
+    threads.apply_inherited()  # CAMP-THREADS: the host's budget (agspec's -j N runs N workers)
     ACTOR = actor_network()
     ACTOR.load_state_dict(torch.load(os.environ["AGSPEC_TORCHRL_ACTOR"], map_location="cpu"))
     ACTOR.eval()

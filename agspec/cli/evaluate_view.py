@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
@@ -195,7 +195,8 @@ class Campaign:
                                         load_timeout=self.load_timeout))
         return todo, instances
 
-    def run(self, executor: ExecutorSpec, out: Path | None, show: bool) -> None:
+    def run(self, executor: ExecutorSpec, out: Path | None, show: bool,
+            threads: Mapping[str, Any] | None = None) -> None:
         from agspec.evaluate import map_episodes
         from agspec.policy.bundle import BundleError, BundleWriter, header
 
@@ -210,7 +211,7 @@ class Campaign:
             head = header(policies.values(), known.values(), split=self.split, workers=executor.jobs or 1,
                           options={"strict": self.strict, "timeout": self.timeout,
                                    "load_timeout": self.load_timeout, "repeat": self.repeats},
-                          planned=self.planned())
+                          planned=self.planned(), threads=threads)
             try:
                 writer = BundleWriter(out, head)
             except BundleError as exc:

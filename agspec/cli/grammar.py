@@ -106,7 +106,7 @@ CONCEPTS: dict[str, str] = {
     "--config": "a file of training settings",
     "--print-config": "print the resolved training configuration and exit",
     "--envs": "environment copies stepped in parallel",
-    "--threads": "torch threads of the learner",
+    "--threads": "torch intra-op threads of each process that runs torch (CAMP-THREADS)",
     "--campaign": "a training campaign: `paper` or a plan file",
 }
 

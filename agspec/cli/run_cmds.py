@@ -10,6 +10,7 @@ import click
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from agspec import threads as thread_budget
 from agspec.campaign.executor import ExecutorError, ExecutorSpec
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, FORMAT_OPTION, SEED_RANGE, Choice, emit_json, fail, stderr
 from agspec.cli.common import stdout
@@ -198,6 +199,8 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
               help="Instance split (default final-test).")
 @click.option("--indices", default=None, help="Suite indices inside the split, e.g. 1000-1049 or 1000,1003,1005-1007.")
 @click.option("-j", "--jobs", type=click.IntRange(1, 256), default=None, help=JOBS_HELP)
+@click.option("--threads", type=click.IntRange(1), default=None,
+              help="Torch intra-op threads of each policy process (default: the budget, CAMP-THREADS).")
 @click.option("--metric", "metric_keys", multiple=True, type=Choice(METRICS), default=None,
               help="Metrics to show (default delivered; with --policy also admitted completion).")
 @click.option("--diagnostics", is_flag=True, help="Also show the mechanism diagnostics the paper reports.")
@@ -220,11 +223,13 @@ METRICS = tuple(row[0] for row in RUN_ROWS)
 @executor_options
 def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str, ...], names: tuple[str, ...],
              versions: tuple[str, ...], controllers: tuple[str, ...], scenarios: tuple[str, ...], split: str | None,
-             indices: str | None, jobs: int, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
+             indices: str | None, jobs: int, threads: int | None, metric_keys: tuple[str, ...], diagnostics: bool, strict: bool,
              timeout: float, load_timeout: float, repeats: int, no_published: bool, allow_incomplete: bool,
              output: str | None, fmt: str, paper: bool, campaign: ExecutorSpec) -> None:
     """Evaluate policies and reference controllers on many instances: the paper's table, mean ± 95 % interval
     (1.96·s/√n), and a paired comparison of each --policy against each reference (spec/13-policy.md)."""
+    budget = thread_budget.facts(campaign.jobs or 1, threads,
+                                 thread_budget.apply(thread_budget.budget(campaign.jobs or 1, threads)))
     if paper:  # never into the project's own docs/ by default: a directory of its own in the working directory
         _evaluate_paper(campaign, Path(output or PAPER_DIR), fmt)
         return
@@ -241,7 +246,7 @@ def evaluate(bundles: tuple[Path, ...], from_bundles: bool, policies: tuple[str,
                              controllers=controllers, scenarios=scenarios, split=split, indices=indices,
                              strict=strict, timeout=timeout, load_timeout=load_timeout, repeats=repeats)
     try:
-        plan.run(campaign, out_path, show=fmt == "table" and sys.stderr.isatty())
+        plan.run(campaign, out_path, show=fmt == "table" and sys.stderr.isatty(), threads=budget)
     except ExecutorError as exc:
         fail(str(exc))
     metrics = metric_keys or (("delivered", "completion_rate") if plan.user_labels else ("delivered",))

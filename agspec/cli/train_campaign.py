@@ -14,6 +14,7 @@ from typing import Any, Mapping
 from rich.table import Table
 from rich.text import Text
 
+from agspec import threads
 from agspec.cli.common import EXIT_INVALID, EXIT_USAGE, emit_json, fail, print_table, stderr
 
 
@@ -42,6 +43,8 @@ def run_plan(text: str, out: Path, settings: Mapping[str, Any], executor: Any, g
 
     plan = load_plan(text)
     plan["settings"] = {**plan["settings"], **settings}
+    # CAMP-THREADS: -j runs share the cores; each run's runtime.threads (RES-CAMPAIGN-THREADS: 1) is its budget
+    threads.apply(threads.budget(executor.jobs or 1, plan["settings"].get("runtime.threads")))
     if gpus:
         if executor.kind != "ray":
             fail("--gpus-per-run needs --executor ray (local workers share the machine's devices: "

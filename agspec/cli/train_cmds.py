@@ -56,7 +56,8 @@ def _settings_file(path: Path, options: Mapping[str, Any]) -> dict[str, Any]:
               help="Training budget in environment steps (default the paper's 1,536,000; divisible by 5).")
 @click.option("--envs", type=click.IntRange(1), default=None, help="Environment copies stepped together (default 1).")
 @click.option("--device", default=None, metavar="cpu|cuda", help="Torch device (default cpu).")
-@click.option("--threads", type=click.IntRange(1), default=None, help="Torch intra-op threads (default torch's).")
+@click.option("--threads", type=click.IntRange(1), default=None,
+              help="Torch intra-op threads of each run (default: the budget, CAMP-THREADS).")
 @click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="JSON/YAML file of settings (sections or dotted keys), applied before --set.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",

@@ -44,13 +44,15 @@ def host_facts() -> dict[str, Any]:
 
 
 def header(policies: Iterable[Mapping[str, Any]], instances: Iterable[Mapping[str, Any]], *,
-           split: str | None, workers: int, options: Mapping[str, Any], planned: Planned | None = None
-           ) -> dict[str, Any]:
+           split: str | None, workers: int, options: Mapping[str, Any], planned: Planned | None = None,
+           threads: Mapping[str, Any] | None = None) -> dict[str, Any]:
     head = {"format": FORMAT, "agspec_version": __version__, "spec_version": SPEC_VERSION,
             "catalogue_digest": catalogue_digest(), "split": split, "command": sys.argv[1:], "workers": workers,
             "options": dict(options), "host": host_facts(),
             # F-POLICY-BUDGET: a trained policy's identity states the action it is evaluated with
             "policies": [with_action(p) for p in policies], "instances": list(instances)}
+    if threads is not None:  # CAMP-THREADS: each policy process's intra-op threads, and the bound they meet
+        head["threads"] = dict(threads)
     if planned is not None:  # F-POLICY-COVERAGE: what the summaries must be over
         head["planned"] = planned_entries(planned)
     return head

@@ -24,6 +24,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from agspec import threads
 from agspec.policy.contract import PolicyError
 from agspec.policy.episode import run_here
 from agspec.transport.process import kill_group
@@ -40,7 +41,7 @@ def run_fresh(job: Any) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="agspec-repeat-") as tmp:
         src, dst, err = Path(tmp) / "job.pickle", Path(tmp) / "record.pickle", Path(tmp) / "stderr"
         src.write_bytes(pickle.dumps(job))
-        env = {**os.environ, "PYTHONHASHSEED": "random"}
+        env = threads.child_env({**os.environ, "PYTHONHASHSEED": "random"})  # CAMP-THREADS
         with open(err, "wb") as stderr:
             proc = subprocess.Popen([sys.executable, "-m", "agspec.policy.fresh", str(src), str(dst)], env=env,
                                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=stderr,
@@ -59,6 +60,7 @@ def run_fresh(job: Any) -> dict[str, Any]:
 
 
 def main(argv: list[str]) -> int:
+    threads.apply_inherited()  # CAMP-THREADS: the parent's budget, before a policy imports torch
     job = pickle.loads(Path(argv[0]).read_bytes())
     record = {**run_here(replace(job, repeat=False)), "repeat": True}  # here, the episode itself
     Path(argv[1]).write_bytes(pickle.dumps(record))

@@ -30,6 +30,7 @@ from dataclasses import replace
 from multiprocessing.connection import Connection
 from typing import Any, Iterator
 
+from agspec import threads
 from agspec.campaign.task import describe
 from agspec.policy.contract import PolicyError
 from agspec.policy.episode import DEFAULT_LOAD_TIMEOUT, job_record, run_here
@@ -43,7 +44,7 @@ class PolicyHost:
 
     def __init__(self) -> None:
         mine, theirs = socket.socketpair()
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))  # the worker's imports
+        env = threads.child_env({**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)})  # CAMP-THREADS
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "agspec.policy.host", str(theirs.fileno()), str(os.getpid())],
             pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL, stdout=2, env=env,
@@ -150,6 +151,7 @@ def _watch_parent(parent: int) -> None:
 
 
 def _host_main(conn: Connection, parent: int) -> None:
+    threads.apply_inherited()  # CAMP-THREADS: the worker's budget, before a policy imports torch
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the worker, which tears the host down
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
 
+from agspec import threads
 from agspec.catalogue import OFFICIAL_SCENARIOS, SPLITS
 from agspec.formats import output
 from agspec.train.config import ALGORITHMS
@@ -131,7 +132,8 @@ def _evaluate(item: RunItem, run_dir: Path, policy_sha256: str) -> dict[str, Any
                                        "execution_seed": inst["seeds"]["execution"]}
                                       for k, inst in zip(indices, instances)],
                   split=split, workers=1, options={"campaign": True},
-                  planned={(spec.label, item.scenario): frozenset(indices)})
+                  planned={(spec.label, item.scenario): frozenset(indices)},
+                  threads=threads.facts(1, None, threads.inherited() or threads.budget(1)))  # CAMP-THREADS: the run's budget
     writer = BundleWriter(path, head)
     runs = evaluate([Job(item.scenario, k, spec, inst) for k, inst in zip(indices, instances)], workers=1,
                     on_done=writer.add)

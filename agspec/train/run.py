@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 import agspec
+from agspec import threads
 from agspec.checkpoint import rundir
 from agspec.checkpoint.files import load_checkpoint, save_checkpoint, save_policy
 from agspec.formats.digest import file_sha256
@@ -274,8 +275,8 @@ def run(config: dict[str, Any], out_dir: Any, *, resume: bool = False, progress:
         has_checkpoint = rundir.prepare(out, config, resume)
         if not (out / rundir.CONFIG).exists():
             rundir.write_json_atomic(out / rundir.CONFIG, config)
-        if config["runtime"]["threads"] is not None:  # the process's intra-op threads: this command owns them
-            torch.set_num_threads(config["runtime"]["threads"])
+        # CAMP-THREADS: the process's intra-op threads, runtime.threads or the budget; run.json's versions record them
+        threads.apply(threads.budget(1, config["runtime"]["threads"] or threads.inherited()))
         return Run(config, out, progress).train(resume=has_checkpoint)
 
 
