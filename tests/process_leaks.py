@@ -3,7 +3,7 @@ kinds × exit paths, with a leak check after each run.
 
 Shared by tests/test_process_leaks.py (a bounded share) and benchmarks/fuzz_leaks.py (the whole table).
 A child (a simulator under test, a policy process, a Python policy in its host and its fresh-process
-repeat) leaves a helper behind (tests/fakes/helpers.py: in its process group, in a session of its own
+repeat, the same in the workers of a campaign with ``-j 2``) leaves a helper behind (tests/fakes/helpers.py: in its process group, in a session of its own
 holding its pipes, double-forked and detached), and the ``agspec`` command ends normally, on an error
 of the child, on a timeout, or by SIGINT or SIGTERM.  Wrong: a helper still alive after the command,
 or a command that does not end within its bound.
@@ -22,7 +22,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 FAKES = HERE / "fakes"
-KINDS = ("simulator", "policy-process", "policy-python")
+KINDS = ("simulator", "policy-process", "policy-python", "campaign-workers")
 HELPERS = ("group", "session", "detached")
 PATHS = ("normal", "error", "timeout", "sigint", "sigterm")
 BOUND = 60.0  # seconds a run may take, whatever the child does
@@ -53,7 +53,8 @@ def command(kind: str, path: str, out: Path, python: str | None = None) -> tuple
                          "--repro-dir", str(out / "repro")], {}
     policy = (f"{sys.executable} {FAKES / 'policy_process.py'} {mode}" if kind == "policy-process"
               else f"{FAKES / 'leaky_policy.py'}:make_policy")
-    return agspec + ["evaluate", "--policy", policy, "--scenario", "flow-easy", "--indices", "0-0", "--timeout", "2",
+    workers = ["-j", "2", "--indices", "0-1"] if kind == "campaign-workers" else ["--indices", "0-0"]
+    return agspec + ["evaluate", "--policy", policy, "--scenario", "flow-easy", *workers, "--timeout", "2",
                      "--format", "json", "-o", str(out / "bundle.json")], {"AGSPEC_LEAK_MODE": mode}
 
 
