@@ -66,6 +66,7 @@ def _evaluate(tmp_path: Path, *extra: str) -> tuple[dict, list[dict]]:
 
 
 def test_policy_host_and_fresh_repeat_see_the_budget(tmp_path):  # CAMP-THREADS, F-POLICY-HOST
+    pytest.importorskip("torch", reason="the train extra is not installed: pip install \'agspec[train]\'")
     data, seen = _evaluate(tmp_path)
     assert len(seen) == 2 and len({s["pid"] for s in seen}) == 2  # the host's episode and the fresh repeat's
     n = threads.budget(1)
@@ -74,6 +75,7 @@ def test_policy_host_and_fresh_repeat_see_the_budget(tmp_path):  # CAMP-THREADS,
 
 
 def test_threads_option_overrides_the_budget(tmp_path):  # CAMP-THREADS
+    pytest.importorskip("torch", reason="the train extra is not installed: pip install \'agspec[train]\'")
     data, seen = _evaluate(tmp_path, "--threads", "2")
     assert all(s["omp"] == s["agspec"] == "2" for s in seen)
     assert all(s["torch"] == min(2, threads.cores()) for s in seen)  # torch caps OMP_NUM_THREADS at the cores
@@ -81,6 +83,7 @@ def test_threads_option_overrides_the_budget(tmp_path):  # CAMP-THREADS
 
 
 def test_jobs_as_many_as_cores_keep_within_the_cores(tmp_path):  # CAMP-THREADS
+    pytest.importorskip("torch", reason="the train extra is not installed: pip install \'agspec[train]\'")
     cores = threads.cores()
     data, seen = _evaluate(tmp_path, "-j", str(cores))
     budget = data["threads"]

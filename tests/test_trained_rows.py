@@ -176,7 +176,8 @@ def test_the_family_figure_marks_a_series_below_the_papers_budget(tmp_path_facto
     assert res.exit_code == 0, res.output
     svg = target.read_text()
     for t in truth.values():
-        entry = re.findall(rf"{re.escape(t['name'].rstrip('†'))}†?(?:\))?, n = ", svg)
+        # a legend entry starts with the name (not inside another entry's "run (MAPPO†)")
+        entry = re.findall(rf"(?<![\w(]){re.escape(t['name'].rstrip('†'))}†?(?:\))?, n = ", svg)
         assert entry, t["name"]
         assert all(("†" in e) == (t["steps"] < PAPER_BUDGET) for e in entry), entry
     check_notes(svg.replace("&#8212;", "—"), truth)

@@ -63,14 +63,15 @@ class _ServerLines:
     proc = None  # no operating-system process behind it
 
     def send(self, data: bytes, cmd: str) -> None:
-        msg = json.loads(data)
-        reply = self.server.handle(msg)
-        out = compact_bytes(reply)
-        if self.sim.target in (self.sim.positions.of(msg), "*") and self.sim.mutation is not None:
-            self.sim.applied = self.sim.mutation(reply)
-            out = self.sim.applied.data
-        for line in out.split(b"\n"):
-            self.lines.put(line)
+        for request in data.splitlines():  # several requests may come in one write (RES-STREAM-INPUT)
+            msg = json.loads(request)
+            reply = self.server.handle(msg)
+            out = compact_bytes(reply)
+            if self.sim.target in (self.sim.positions.of(msg), "*") and self.sim.mutation is not None:
+                self.sim.applied = self.sim.mutation(reply)
+                out = self.sim.applied.data
+            for line in out.split(b"\n"):
+                self.lines.put(line)
 
     def receive(self, cmd: str, seq: int, limit: float) -> bytes:
         try:
