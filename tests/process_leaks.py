@@ -20,24 +20,14 @@ import time
 import uuid
 from pathlib import Path
 
+from teardown_cases import tagged_processes as tagged
+
 HERE = Path(__file__).resolve().parent
 FAKES = HERE / "fakes"
 KINDS = ("simulator", "policy-process", "policy-python", "campaign-workers")
 HELPERS = ("group", "session", "detached")
 PATHS = ("normal", "error", "timeout", "sigint", "sigterm")
 BOUND = 60.0  # seconds a run may take, whatever the child does
-
-
-def tagged(tag: str) -> list[int]:
-    out = []
-    for proc in Path("/proc").iterdir():
-        if proc.name.isdigit():
-            try:
-                if tag.encode() in (proc / "cmdline").read_bytes():
-                    out.append(int(proc.name))
-            except OSError:
-                pass
-    return out
 
 
 def command(kind: str, path: str, out: Path, python: str | None = None) -> tuple[list[str], dict[str, str]]:
