@@ -418,8 +418,30 @@ def iter_json_lines(path: str | Path, limits: Limits | None = None) -> Iterator[
 def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None) -> Any:
     """The value of a YAML text (safe types only) within the limits (F-LIMITS).
 
-    The document is composed into nodes first; the node graph is checked (aliases expanded in the
-    count, so an alias bomb is refused before any object is built), then constructed.
+    The document is composed into nodes first (:func:`compose_yaml`: the node graph is checked,
+    aliases expanded in the count, so an alias bomb is refused before any object is built), then
+    constructed.
+    """
+    node = compose_yaml(text, file, limits)
+    if node is None:
+        return None
+    try:
+        value = yaml.SafeLoader(text).construct_document(node)
+    except (yaml.YAMLError, ValueError, OverflowError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise InputError("AG008", f"not valid YAML: {getattr(exc, 'problem', None) or exc}", file=file,
+                         line=mark.line + 1 if mark else None, col=mark.column + 1 if mark else None) from None
+    bad = _non_finite(value)
+    if bad is not None:
+        raise InputError("AG008", f"{bad} is not allowed: agspec files hold finite numbers", file=file)
+    return value
+
+
+def compose_yaml(text: str, file: str | None = None, limits: Limits | None = None) -> yaml.Node | None:
+    """The node graph of a YAML text within the limits (F-LIMITS), or None for an empty document: the
+    one YAML reader of every agspec file (the nodes keep their lines for located messages).
+
+    Events are counted before anything is composed; the graph is checked before anything is built.
     """
     limits = limits or Limits.from_env()
     _count_yaml_events(text, file, limits)
@@ -431,19 +453,9 @@ def parse_yaml(text: str, file: str | None = None, limits: Limits | None = None)
                          line=mark.line + 1 if mark else None, col=mark.column + 1 if mark else None) from None
     except RecursionError:
         raise _limit_error("max_depth", f"nesting deeper than {limits.max_depth} levels", limits, file=file) from None
-    if node is None:
-        return None
-    check_yaml_nodes(node, file, limits)
-    try:
-        value = yaml.SafeLoader(text).construct_document(node)
-    except (yaml.YAMLError, ValueError, OverflowError) as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError("AG008", f"not valid YAML: {getattr(exc, 'problem', None) or exc}", file=file,
-                         line=mark.line + 1 if mark else None, col=mark.column + 1 if mark else None) from None
-    bad = _non_finite(value)
-    if bad is not None:
-        raise InputError("AG008", f"{bad} is not allowed: agspec files hold finite numbers", file=file)
-    return value
+    if node is not None:
+        check_yaml_nodes(node, file, limits)
+    return node
 
 
 # LibYAML's parser where PyYAML has it (C speed), else the pure-Python one: same events, same nodes.

@@ -35,21 +35,12 @@ from agspec.resources import conformance_dir
 
 def _compose(text: str, file: str) -> tuple[Any, dict[str, int]]:
     """Parse YAML (JSON is YAML) into plain values plus a map JSON Pointer -> 1-based line."""
-    try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise SuiteError(Located(file, line, f"not valid YAML: {problem}")) from None
-    except RecursionError:
-        raise SuiteError(Located(file, None, "nesting too deep (F-LIMITS)")) from None
-    if node is None:
-        raise SuiteError(Located(file, 1, "empty case file"))
     try:  # F-LIMITS: alias bombs, depth, long scalars and duplicate keys refused before anything is built
-        limits.check_yaml_nodes(node, file, limits.Limits.from_env())
+        node = limits.compose_yaml(text, file, limits.Limits.from_env())
     except limits.InputError as exc:
         raise SuiteError(Located(file, exc.line, str(exc))) from None
+    if node is None:
+        raise SuiteError(Located(file, 1, "empty case file"))
     lines: dict[str, int] = {}
     constructor = yaml.SafeLoader("")
 
