@@ -90,7 +90,7 @@ def measure(scenario: str, algorithm: str, envs: int, spu: int, updates: int, de
     blocks = curriculum.plan(config)
     instance = curriculum.training_instances(config, blocks[:1])[0]
     n_agents, state_dim = _dims(instance)
-    rollout = _rollout_device(config, torch.device(device))
+    rollout = _rollout_device(config)
     learner = _learner(config, n_agents, state_dim, torch.device(device), rollout)
     vec = make_vector(instance, envs, config["reward"]["support_credit"], algorithm != "ippo",
                       "async" if envs > 1 else "sync")
@@ -157,7 +157,8 @@ def main() -> None:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--rollout-device", default="learner", help="runtime.rollout_device (RES-ROLLOUT-DEVICE)")
     ap.add_argument("--gpu-update-s", type=float, default=None,
-                    help="project one paper run with this update time (seconds, measured on a GPU)")
+                    help="project one paper run with this many seconds per update of --steps-per-update steps "
+                         "(measured on a GPU)")
     ap.add_argument("--baseline-steps", type=int, default=800)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()

@@ -122,8 +122,7 @@ def test_where_the_rollout_acts():  # RES-ROLLOUT-DEVICE
 
     cpu, cuda = torch.device("cpu"), torch.device("cuda")
     assert tiny("ippo")["runtime"]["rollout_device"] == "learner"  # the default: no copy
-    assert acting.rollout_device(config("learner"), cuda) is None
-    assert acting.rollout_device(config("cpu"), cpu) == cpu and acting.rollout_device(config("cpu"), cuda) == cpu
+    assert acting.rollout_device(config("learner")) is None and acting.rollout_device(config("cpu")) == cpu
     assert acting.describe(cuda, None) == "cuda" and acting.describe(cuda, cpu) == "cpu"
     assert acting.same_device(torch.device("cuda"), torch.device("cuda:0"))
     assert not acting.same_device(torch.device("cuda:1"), torch.device("cuda:0"))
@@ -133,9 +132,9 @@ def test_where_the_rollout_acts():  # RES-ROLLOUT-DEVICE
     assert own is not gen and torch.equal(own.get_state(), acting.rollout_stream(0, gen, cuda, cpu).get_state())
     assert not torch.equal(own.get_state(), acting.rollout_stream(1, gen, cuda, cpu).get_state())
     with pytest.raises(ConfigError, match="runtime.rollout_device"):
-        _rollout_device(config("no-such-device"), cpu)
+        _rollout_device(config("no-such-device"))
     if not torch.cuda.is_available():
         with pytest.raises(ConfigError, match="no CUDA device"):
-            _rollout_device(config("cuda"), cpu)
+            _rollout_device(config("cuda"))
     with pytest.raises(ConfigError, match="rollout_device"):
         tiny("ippo", **{"runtime.rollout_device": 0})

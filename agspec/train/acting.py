@@ -3,9 +3,9 @@
 The rollout evaluates the actor (and, for PPO, the critic) once per tick on one agent set — 20 to 48
 rows.  On a GPU such a batch is bound by launch and transfer latency, not arithmetic; the update's
 large minibatches are where the GPU pays, and a GPU shared by many runs of a campaign is their
-scarce part.  So the rollout may act on a copy of the networks on its own device, loaded from the learner's after every change of the
-learner's weights (and at the start and on resume), so that every action is drawn from exactly the
-weights the plain loop would use.  The copy changes where arithmetic happens, never the protocol
+scarce part.  So the rollout may act on a copy of the networks on its own device, loaded from the
+learner's after every change of the learner's weights (and at the start and on resume), so that
+every action is drawn from exactly the weights the plain loop would use.  The copy changes where arithmetic happens, never the protocol
 (one environment copy, RES-ONE-COPY; the same ticks, updates and schedules).
 """
 
@@ -28,7 +28,7 @@ def same_device(a: torch.device, b: torch.device) -> bool:
     return a.type == b.type and (a.index or 0) == (b.index or 0)
 
 
-def rollout_device(config: Mapping[str, Any], learner: torch.device) -> torch.device | None:
+def rollout_device(config: Mapping[str, Any]) -> torch.device | None:
     """RES-ROLLOUT-DEVICE: the device the rollout's copy lives on, or None when the learner's own networks
     act (``learner``).  A device name puts a copy there, even on the learner's device (same stream,
     same bytes: what the tests use to check the copy's synchronization)."""

@@ -62,12 +62,12 @@ def _device(config: Mapping[str, Any]) -> torch.device:
     return _checked("runtime.device", config["runtime"]["device"])
 
 
-def _rollout_device(config: Mapping[str, Any], learner: torch.device) -> torch.device | None:
+def _rollout_device(config: Mapping[str, Any]) -> torch.device | None:
     """RES-ROLLOUT-DEVICE: where the rollout's copy lives, or None for the learner's own networks."""
     name = config["runtime"]["rollout_device"]
     if name != acting.LEARNER:
         _checked("runtime.rollout_device", name)
-    return acting.rollout_device(config, learner)
+    return acting.rollout_device(config)
 
 
 def _learner(config: Mapping[str, Any], n_agents: int, state_dim: int, device: torch.device,
@@ -105,7 +105,7 @@ class Run:
         for inst in self.instances[1:]:
             if _dims(inst) != (n_agents, state_dim):  # the scenario fixes both (T-CURRICULUM)
                 raise cfg.ConfigError("the training realizations differ in agents or state size")
-        self.rollout = _rollout_device(config, self.device)
+        self.rollout = _rollout_device(config)
         self.learner = _learner(config, n_agents, state_dim, self.device, self.rollout)
         self.position: dict[str, Any] = {"block": 0, "block_step": 0, "steps": 0, "updates": 0, "row_steps": 0,
                                          "checkpoint_steps": 0, "pending": [], "diagnostics": {},
