@@ -5,8 +5,9 @@ rows.  On a GPU such a batch is bound by launch and transfer latency, not arithm
 large minibatches are where the GPU pays, and a GPU shared by many runs of a campaign is their
 scarce part.  So the rollout may act on a copy of the networks on its own device, loaded from the
 learner's after every change of the learner's weights (and at the start and on resume), so that
-every action is drawn from exactly the weights the plain loop would use.  The copy changes where arithmetic happens, never the protocol
-(one environment copy, RES-ONE-COPY; the same ticks, updates and schedules).
+every action is drawn from exactly the weights the plain loop would use.  The copy changes where
+arithmetic happens, never the protocol (one environment copy, RES-ONE-COPY; the same ticks, updates
+and schedules).
 """
 
 from __future__ import annotations
