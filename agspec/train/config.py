@@ -57,8 +57,9 @@ _COMMON: dict[str, Any] = {
     "checkpoint": {"every_steps": 16_000},
     # T-COPIES: environment copies stepped together; the original stepped one (RES-ONE-COPY)
     "rollout": {"envs": 1},
-    # execution choices that never change a result on CPU (T-COPIES: sync or async vector env)
-    "runtime": {"device": "cpu", "vector": "auto", "threads": None},
+    # execution choices that never change a result on CPU (T-COPIES: sync or async vector env); where the
+    # rollout acts: the learner's networks, or a copy on a named device (RES-ROLLOUT-DEVICE)
+    "runtime": {"device": "cpu", "rollout_device": "learner", "vector": "auto", "threads": None},
 }
 
 # "Execution network" IPPO/MAPPO: the shared actor (T-ACTOR)
@@ -247,6 +248,8 @@ def check(config: Mapping[str, Any]) -> None:
         raise ConfigError(f"runtime.threads must be a positive integer or null, got {threads!r}")
     if not isinstance(config["runtime"]["device"], str):
         raise ConfigError("runtime.device must be a string such as cpu or cuda")
+    if not isinstance(config["runtime"]["rollout_device"], str):
+        raise ConfigError("runtime.rollout_device must be learner or a device such as cpu (RES-ROLLOUT-DEVICE)")
     actions = config["validation"]["actions"]
     if not isinstance(actions, list) or not actions or any(a not in ("greedy", "sample") for a in actions):
         raise ConfigError(f"validation.actions must be a non-empty list of greedy and sample, got {actions!r}")

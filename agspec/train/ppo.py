@@ -16,6 +16,7 @@ import torch
 from torch.nn import functional as F
 
 from agspec.checkpoint import nets
+from agspec.train import acting
 from agspec.train.rollout import EpisodeStats, restart, step_info
 
 
@@ -87,10 +88,13 @@ def explained_variance(pred: torch.Tensor, target: torch.Tensor) -> float:
 
 
 class PPOLearner:
-    """The actor, the critic, their AdamW optimizers and the run's random stream (T-ADAMW, T-DETERMINISM)."""
+    """The actor, the critic, their AdamW optimizers and the run's random stream (T-ADAMW, T-DETERMINISM);
+    the rollout acts on ``rollout`` copies of both when given, sampling from ``rollout_gen``
+    (RES-ROLLOUT-DEVICE)."""
 
     def __init__(self, config: Mapping[str, Any], n_agents: int, state_dim: int, device: torch.device,
-                 init: torch.Generator, gen: torch.Generator):
+                 init: torch.Generator, gen: torch.Generator, rollout: torch.device | None = None,
+                 rollout_gen: torch.Generator | None = None):
         self.config, self.device, self.gen = config, device, gen
         self.central = config["critic"]["input"] == "state+observation"
         a, c = config["actor"], config["critic"]
@@ -102,6 +106,16 @@ class PPOLearner:
         self.actor_opt = torch.optim.AdamW(self.actor.parameters(), lr=config["lr"]["actor"], **kw)
         self.critic_opt = torch.optim.AdamW(self.critic.parameters(), lr=config["lr"]["critic"], **kw)
         self.n_agents = n_agents
+        # RES-ROLLOUT-DEVICE: the per-tick forward passes on one agent set run where that batch is fastest
+        self.rollout_device = rollout or device
+        self.acting_actor, self.acting_critic = acting.copy_to(self.actor, rollout), acting.copy_to(self.critic, rollout)
+        self.rollout_gen = rollout_gen if rollout_gen is not None else gen
+
+    def sync_rollout(self) -> None:
+        """RES-ROLLOUT-DEVICE: the rollout's copies take the learner's weights; called after every update
+        and on resume, so that no action is drawn from stale weights."""
+        acting.sync(self.acting_actor, self.actor)
+        acting.sync(self.acting_critic, self.critic)
 
     # ------------------------------------------------------------------ acting
 
@@ -118,18 +132,19 @@ class PPOLearner:
     def act(self, obs: torch.Tensor, mask: torch.Tensor, state: torch.Tensor | None
             ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Sample every agent's action from its masked policy (T-MASK); [E, R] actions, log-probs, values."""
-        logp_all = F.log_softmax(nets.masked_logits(self.actor(obs), mask), dim=-1)
+        logp_all = F.log_softmax(nets.masked_logits(self.acting_actor(obs), mask), dim=-1)
         flat = logp_all.reshape(-1, logp_all.shape[-1])
-        actions = torch.multinomial(flat.exp(), 1, generator=self.gen).squeeze(-1)
+        actions = torch.multinomial(flat.exp(), 1, generator=self.rollout_gen).squeeze(-1)
         logp = flat.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
-        values = self.critic(self.critic_input(obs, state))
+        values = self.acting_critic(self.critic_input(obs, state))
         shape = obs.shape[:-1]
         return actions.view(shape), logp.view(shape), values
 
     def collect(self, vec: Any, obs: dict[str, np.ndarray], ticks: int, episodes: EpisodeStats
                 ) -> tuple[Rollout, dict[str, np.ndarray]]:
-        """``ticks`` joint steps of every copy (T-ENV-STEP), resetting copies whose episode ended."""
-        dev = self.device
+        """``ticks`` joint steps of every copy (T-ENV-STEP), resetting copies whose episode ended; the samples
+        are gathered on the rollout's device and moved to the learner's once (RES-ROLLOUT-DEVICE)."""
+        dev = self.rollout_device
         buf: dict[str, list[torch.Tensor]] = {k: [] for k in ("obs", "mask", "state", "actions", "logp", "values",
                                                               "rewards", "dones")}
         for _ in range(ticks):
@@ -149,9 +164,9 @@ class PPOLearner:
         with torch.no_grad():
             o = torch.from_numpy(obs["obs"]).to(dev)
             s = torch.from_numpy(obs["state"]).to(dev) if self.central else None
-            last = self.critic(self.critic_input(o, s))
-        stack = {k: torch.stack(v) for k, v in buf.items() if k != "state"}
-        state = torch.stack(buf["state"]) if self.central else None
+            last = self.acting_critic(self.critic_input(o, s)).to(self.device)
+        stack = {k: torch.stack(v).to(self.device) for k, v in buf.items() if k != "state"}
+        state = torch.stack(buf["state"]).to(self.device) if self.central else None
         return Rollout(stack["obs"], stack["mask"], state, stack["actions"], stack["logp"], stack["values"],
                        stack["rewards"], stack["dones"], last), obs
 
@@ -209,6 +224,7 @@ class PPOLearner:
                     break
             if stopped:
                 break
+        self.sync_rollout()  # RES-ROLLOUT-DEVICE: the next rollout acts with the weights just learned
         with torch.no_grad():
             predicted = torch.cat([
                 self.critic(self.critic_input(obs[idx], state[idx // n_agents] if state is not None else None))
@@ -224,7 +240,9 @@ class PPOLearner:
     def state_dict(self) -> dict[str, Any]:
         return {"actor": self.actor.state_dict(), "critic": self.critic.state_dict(),
                 "actor_opt": self.actor_opt.state_dict(), "critic_opt": self.critic_opt.state_dict(),
-                "gen": self.gen.get_state()}
+                "gen": self.gen.get_state(),
+                # RES-ROLLOUT-DEVICE: a rollout stream of its own is part of the resumable state (T-RESUME)
+                **({"rollout_gen": self.rollout_gen.get_state()} if self.rollout_gen is not self.gen else {})}
 
     def load_state_dict(self, data: Mapping[str, Any]) -> None:
         self.actor.load_state_dict(data["actor"])
@@ -232,6 +250,9 @@ class PPOLearner:
         self.actor_opt.load_state_dict(data["actor_opt"])
         self.critic_opt.load_state_dict(data["critic_opt"])
         self.gen.set_state(data["gen"])
+        if self.rollout_gen is not self.gen and "rollout_gen" in data:
+            self.rollout_gen.set_state(data["rollout_gen"])
+        self.sync_rollout()
 
     def policy_net(self) -> torch.nn.Module:
         return self.actor

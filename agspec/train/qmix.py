@@ -18,6 +18,7 @@ from torch.nn import functional as F
 
 from agspec.checkpoint import nets
 from agspec.formats import output
+from agspec.train import acting
 from agspec.train.rollout import EpisodeStats, restart, step_info
 
 
@@ -122,10 +123,12 @@ class Replay:
 
 
 class QMIXLearner:
-    """The Q network, the mixer, their targets, one AdamW optimizer, the run's random streams."""
+    """The Q network, the mixer, their targets, one AdamW optimizer, the run's random streams; the rollout
+    acts on a ``rollout`` copy of the Q network when given (RES-ROLLOUT-DEVICE)."""
 
     def __init__(self, config: Mapping[str, Any], n_agents: int, state_dim: int, device: torch.device,
-                 init: torch.Generator, gen: torch.Generator, rng: np.random.Generator):
+                 init: torch.Generator, gen: torch.Generator, rng: np.random.Generator,
+                 rollout: torch.device | None = None):
         self.config, self.device, self.gen, self.rng = config, device, gen, rng
         q, m = config["qnet"], config["mixer"]
         self.qnet = nets.QNet(q["hidden"], init).to(device)
@@ -141,6 +144,14 @@ class QMIXLearner:
         self.step = 0  # environment steps taken (1-based once the first is taken)
         self.last: dict[str, float] = {}
         self.updates = 0
+        # RES-ROLLOUT-DEVICE: ε-greedy acting needs no torch stream (its coins are NumPy's), only the weights
+        self.rollout_device = rollout or device
+        self.acting_qnet = acting.copy_to(self.qnet, rollout)
+
+    def sync_rollout(self) -> None:
+        """RES-ROLLOUT-DEVICE: the rollout's copy takes the learner's weights; called after every TD update
+        and on resume, so that every tick acts with the weights the plain loop would use."""
+        acting.sync(self.acting_qnet, self.qnet)
 
     def sync(self) -> None:
         """T-QMIX-UPDATE: hard target synchronisation."""
@@ -151,8 +162,8 @@ class QMIXLearner:
     def act(self, obs: np.ndarray, mask: np.ndarray, eps: list[float]) -> np.ndarray:
         """ε-greedy per agent: with probability ε a legal action uniformly, else the masked argmax of Q
         (T-QMIX-EXPLORATION, T-EVAL-ACTION)."""
-        q = self.qnet(torch.from_numpy(obs).to(self.device))
-        actions = nets.greedy(q, torch.from_numpy(mask).to(self.device)).cpu().numpy()
+        q = self.acting_qnet(torch.from_numpy(obs).to(self.rollout_device))
+        actions = nets.greedy(q, torch.from_numpy(mask).to(self.rollout_device)).cpu().numpy()
         coins = self.rng.random(actions.shape)
         for e, a in zip(*np.nonzero(coins < np.asarray(eps)[:, None])):
             legal = np.flatnonzero(mask[e, a])
@@ -176,6 +187,7 @@ class QMIXLearner:
         loss.backward()
         torch.nn.utils.clip_grad_norm_([*self.qnet.parameters(), *self.mixer.parameters()], r["max_grad_norm"])
         self.opt.step()
+        self.sync_rollout()  # RES-ROLLOUT-DEVICE: the next tick acts with the weights just learned
         self.updates += 1
         return {"td_loss": float(loss.detach()), "mean_q_tot": float(q_tot.detach().mean()),
                 "median_abs_q_tot": float(q_tot.detach().abs().median())}
@@ -224,6 +236,7 @@ class QMIXLearner:
         self.gen.set_state(data["gen"])
         self.rng.bit_generator.state = data["rng"]
         self.step, self.updates, self.last = int(data["step"]), int(data["updates"]), dict(data["last"])
+        self.sync_rollout()
 
     def policy_net(self) -> torch.nn.Module:
         return self.qnet

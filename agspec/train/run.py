@@ -23,7 +23,7 @@ from agspec.checkpoint import rundir
 from agspec.checkpoint.files import load_checkpoint, save_checkpoint, save_policy
 from agspec.formats.digest import file_sha256
 from agspec.train import config as cfg
-from agspec.train import curriculum
+from agspec.train import acting, curriculum
 from agspec.train.record import RECORD_SCHEMA, Record, episode_means
 from agspec.train.rollout import EpisodeStats, make_vector, start_block, vector_mode
 
@@ -48,26 +48,39 @@ def versions() -> dict[str, Any]:
             "python": platform.python_version(), "platform": platform.platform(), "threads": torch.get_num_threads()}
 
 
-def _device(config: Mapping[str, Any]) -> torch.device:
-    name = config["runtime"]["device"]
+def _checked(key: str, name: str) -> torch.device:
     try:
         device = torch.device(name)
     except RuntimeError as exc:
-        raise cfg.ConfigError(f"runtime.device {name!r}: {exc}") from None
+        raise cfg.ConfigError(f"{key} {name!r}: {exc}") from None
     if device.type == "cuda" and not torch.cuda.is_available():
-        raise cfg.ConfigError(f"runtime.device {name!r}: this torch has no CUDA device (torch {torch.__version__})")
+        raise cfg.ConfigError(f"{key} {name!r}: this torch has no CUDA device (torch {torch.__version__})")
     return device
 
 
-def _learner(config: Mapping[str, Any], n_agents: int, state_dim: int, device: torch.device) -> Any:
+def _device(config: Mapping[str, Any]) -> torch.device:
+    return _checked("runtime.device", config["runtime"]["device"])
+
+
+def _rollout_device(config: Mapping[str, Any]) -> torch.device | None:
+    """RES-ROLLOUT-DEVICE: where the rollout's copy lives, or None for the learner's own networks."""
+    name = config["runtime"]["rollout_device"]
+    if name != acting.LEARNER:
+        _checked("runtime.rollout_device", name)
+    return acting.rollout_device(config)
+
+
+def _learner(config: Mapping[str, Any], n_agents: int, state_dim: int, device: torch.device,
+             rollout: torch.device | None = None) -> Any:
     init, gen, rng = streams(config["seed"], device)
     if config["algorithm"] == "qmix":
         from agspec.train.qmix import QMIXLearner
 
-        return QMIXLearner(config, n_agents, state_dim, device, init, gen, rng)
+        return QMIXLearner(config, n_agents, state_dim, device, init, gen, rng, rollout)
     from agspec.train.ppo import PPOLearner
 
-    return PPOLearner(config, n_agents, state_dim, device, init, gen)
+    rollout_gen = acting.rollout_stream(config["seed"], gen, device, rollout)
+    return PPOLearner(config, n_agents, state_dim, device, init, gen, rollout, rollout_gen)
 
 
 def _dims(instance: Mapping[str, Any]) -> tuple[int, int]:
@@ -92,7 +105,8 @@ class Run:
         for inst in self.instances[1:]:
             if _dims(inst) != (n_agents, state_dim):  # the scenario fixes both (T-CURRICULUM)
                 raise cfg.ConfigError("the training realizations differ in agents or state size")
-        self.learner = _learner(config, n_agents, state_dim, self.device)
+        self.rollout = _rollout_device(config)
+        self.learner = _learner(config, n_agents, state_dim, self.device, self.rollout)
         self.position: dict[str, Any] = {"block": 0, "block_step": 0, "steps": 0, "updates": 0, "row_steps": 0,
                                          "checkpoint_steps": 0, "pending": [], "diagnostics": {},
                                          "validation": None, "resumed": 0}
@@ -110,7 +124,8 @@ class Run:
                "seed": c["seed"], "config_sha256": self.digest, "budget": c["budget"]["env_steps"],
                "steps": self.position["steps"], "updates": self.position["updates"],
                "realizations": [curriculum.describe(b, i) for b, i in zip(self.blocks, self.instances)],
-               "device": str(self.device), "runtime": dict(c["runtime"]), "versions": versions(), "resumed": self.position["resumed"],
+               "device": str(self.device), "rollout_device": acting.describe(self.device, self.rollout),
+               "runtime": dict(c["runtime"]), "versions": versions(), "resumed": self.position["resumed"],
                "wall_time_s": self.elapsed(), "validation": self.position["validation"], "policy": None}
         if status == "complete":
             out["policy"] = {"path": rundir.POLICY, "sha256": file_sha256(self.out / rundir.POLICY)}
