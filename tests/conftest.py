@@ -6,6 +6,8 @@ import os
 
 import pytest
 
+import tiers
+
 
 def pytest_configure(config) -> None:
     # F-GOLDEN: conform runs in tests are live unless a test names its own cache directory — a
@@ -19,7 +21,13 @@ def pytest_configure(config) -> None:
 
 
 def pytest_collection_modifyitems(config, items) -> None:
-    """The extended tests (README, "Tests"): `ray` starts a local Ray cluster, `browser` drives Chromium.
+    # the extended tier (tests/tiers.py): the tests tests/extended.txt lists
+    tiers.mark(items, frozenset(entry.test for entry in tiers.entries()))
+    _optional_parts(items)
+
+
+def _optional_parts(items) -> None:
+    """The tests that need optional parts (README, "Tests"): `ray` starts a local Ray cluster, `browser` drives Chromium.
 
     The README's `pytest -q` leaves them out (pyproject addopts); `.ci/run` runs them after it. A test
     is marked by what it uses, so a new one is classed without a decorator: the `browser` or
