@@ -192,6 +192,35 @@ def test_server_never_crashes_on_garbage(tiny_instance):
             assert protocol.validate("protocol/error", reply) == []
 
 
+
+def test_the_reference_server_remembers_an_instance_s_schema_check_only_for_that_very_document(tiny_instance):
+    """The load check is remembered per process (conform.impl.serve.schema_errors); documents whose JSON text
+    may coincide — 12, 12.0 and true; NaN and null; a key 1 and "1" — each still get their own verdict."""
+    import copy
+
+    from agspec.ir.schemas import validate_schema
+
+    def with_horizon(value):
+        doc = copy.deepcopy(tiny_instance)
+        doc["scenario"]["evaluation"]["horizon"] = value
+        return doc
+
+    keyed = copy.deepcopy(tiny_instance)
+    keyed["seeds"][1] = keyed["seeds"].pop(next(iter(keyed["seeds"])))
+    docs = [tiny_instance, with_horizon(None), with_horizon(float("nan")), with_horizon(12.5), with_horizon(True),
+            with_horizon(12), with_horizon("12"), keyed, tiny_instance, with_horizon(None)]
+    server = Server()
+    server.handle({"cmd": "start", "seq": 1, "protocol": protocol.PROTOCOL})
+    for seq, doc in enumerate(docs, 2):
+        errors = [i for i in validate_schema(copy.deepcopy(doc)) if i.severity == "error"]
+        reply = server.handle({"cmd": "load", "seq": seq, "instance": copy.deepcopy(doc)})
+        if errors:
+            assert reply["error"]["code"] == "invalid_instance"
+            assert reply["error"]["message"].endswith(f"{errors[0].message} [{errors[0].code}]")
+        else:
+            assert reply["ok"] is True, reply
+
+
 # --------------------------------------------------------------------------- schemas
 
 

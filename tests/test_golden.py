@@ -141,6 +141,70 @@ def test_a_wrong_golden_trace_with_a_valid_digest_cannot_fail_an_honest_implemen
     assert result.outcome == "pass" and result.reference == "live"
 
 
+GOLDEN_DAMAGES = {
+    "an action that is a string": lambda d: d["actions"][3].update({"0,0": "1"}),
+    "an action that is a boolean": lambda d: d["actions"][0].update({"0,0": True}),
+    "an action that is a fraction": lambda d: d["actions"][5].update({"0,0": 1.5}),
+    "a joint action that is a list": lambda d: d["actions"].__setitem__(2, [1, 2]),
+    "actions that are an object": lambda d: d.__setitem__("actions", {"0": {}}),
+    "a negative count": lambda d: d["summary"]["invariant_checks_by_reply"].__setitem__(4, -1),
+    "a count that is a string": lambda d: d["summary"]["expectations_by_reply"].__setitem__(1, "0"),
+    "counts missing": lambda d: d["summary"].pop("expectations_by_reply"),
+    "a summary that is a list": lambda d: d.__setitem__("summary", []),
+    "a short digest string": lambda d: d.__setitem__("replies", d["replies"][:-1]),
+    "an unknown member": lambda d: d.__setitem__("extra", 1),
+    "a key without its policy": lambda d: d["key"].pop("policy"),
+}
+
+
+@pytest.mark.parametrize("damage", sorted(GOLDEN_DAMAGES))
+def test_a_golden_file_against_its_schema_is_refused_with_the_schema_s_first_problem(tmp_path, damage):
+    """The golden file's schema check passes the long arrays in one plain pass (formats.golden): every
+    document the schema refuses is still refused, with the problem the whole schema names first."""
+    item = episode("flow-easy", 12)
+    run([item], "reference", tmp_path)
+    (path,) = golden_files(tmp_path)
+    data = json.loads(path.read_text())
+    body = {k: v for k, v in data.items() if k != "digest"}
+    GOLDEN_DAMAGES[damage](body)
+    doc = {**body, "digest": fmt._digest(body)}
+    path.write_text(json.dumps(doc))
+    (problem,) = schemas.validate("golden", doc, limit=1)
+    with pytest.raises(fmt.GoldenError) as raised:
+        fmt.load(path, body["key"])  # the key it holds: the schema decides
+    assert str(raised.value).endswith(f"not a valid golden trace: {problem}")
+
+
+def test_a_golden_file_the_schema_accepts_is_accepted_in_any_spelling_it_accepts(tmp_path):
+    """An integral float is an integer to the schema (F-VALUES): the plain pass leaves it to the schema,
+    which accepts it — no document the schema accepts is refused."""
+    item = episode("flow-easy", 12)
+    run([item], "reference", tmp_path)
+    (path,) = golden_files(tmp_path)
+    body = {k: v for k, v in json.loads(path.read_text()).items() if k != "digest"}
+    body["actions"][0]["0,0"] = 1.0
+    body["summary"]["invariant_checks_by_reply"][0] = 0.0
+    doc = {**body, "digest": fmt._digest(body)}
+    assert schemas.validate("golden", doc) == []
+    path.write_text(json.dumps(doc))
+    assert fmt.load(path, golden.key(item)).actions[0]["0,0"] == 1.0
+
+
+def test_the_golden_schema_says_of_the_long_arrays_only_what_the_plain_pass_checks():
+    """formats.golden checks `actions` and the per-reply counts without the validator when every entry is
+    a plain integer (or an object of them); that is sound only while the schema asks nothing more of
+    those arrays than what each entry is."""
+    schema = schemas.inlined("golden")
+    actions = {k: v for k, v in schema["properties"]["actions"].items() if k != "description"}
+    assert actions == {"type": "array", "items": {"type": "object", "additionalProperties": {"type": "integer"}}}
+    summary = schema["properties"]["summary"]["properties"]
+    for name in fmt.BY_REPLY:
+        assert summary[name] == {"type": "array", "items": {"type": "integer", "minimum": 0}}
+    assert set(schema) <= {"$schema", "$id", "title", "description", "type", "additionalProperties", "required",
+                           "properties"}
+    assert set(schema["properties"]["summary"]) == {"type", "required", "additionalProperties", "properties"}
+
+
 def test_without_the_fast_encoder_golden_traces_are_recorded_and_matched_with_json(tmp_path, monkeypatch):
     item = episode("coalition-medium", 15)
     run([item], "reference", tmp_path)  # with orjson

@@ -6,6 +6,7 @@ violations, 2 usage or I/O error, 3 harness or protocol error.
 
 from __future__ import annotations
 
+import gc
 import sys
 from typing import Any
 
@@ -132,6 +133,7 @@ def serve(observations: bool, masks: bool) -> None:
     from agspec.conform.impl.serve import Server, serve_stdio
 
     stdin = io.TextIOWrapper(sys.stdin.buffer, encoding="utf-8", errors="replace")
+    gc.freeze()  # the modules live as long as the server: the collections each reply triggers leave them out
     raise SystemExit(serve_stdio(stdin, sys.stdout, Server(observations=observations, masks=masks)))
 
 

@@ -15,12 +15,15 @@ O-ACTION-ENCODING) and any unexpected failure (``internal``, with the traceback 
 
 from __future__ import annotations
 
+import hashlib
+import pickle
 import sys
 import traceback
 from typing import IO, Any, Mapping
 
 from agspec import __version__
 from agspec.formats.actions import NotAnAction, action_value
+from agspec.formats.diagnostics import Issue
 from agspec.formats.jsonl import compact_bytes
 from agspec.formats.protocol import PROTOCOL, encode, error_reply, loads
 from agspec.formats.values import integer
@@ -30,6 +33,29 @@ from agspec.interp.tick import Simulator
 from agspec.ir.schemas import ir_integers, validate_schema
 
 IMPLEMENTATION = {"name": "agspec-reference", "version": __version__, "language": "python"}
+SCHEMA_MEMO = 64  # instances whose schema errors a process remembers
+_schema_errors_of: dict[bytes, tuple[Issue, ...]] = {}  # by the digest of the instance's pickle
+
+
+def schema_errors(instance: dict[str, Any]) -> tuple[Issue, ...]:
+    """The instance IR's schema errors (F-IR), remembered per process: they are a pure function of the
+    document, and one process loads the same instance again and again (each suite case on it, the
+    reference beside an in-process implementation, the session replayed after a restart).  The key is
+    the SHA-256 of the document's pickle, which tells apart what JSON text may not (``1`` from ``1.0``
+    and ``true``, NaN from null, a key ``1`` from ``"1"``) and keeps the key order (which problem the
+    validator names first may depend on it): equal keys are the same document.  A document that
+    cannot be pickled is validated as it is."""
+    try:
+        key = hashlib.sha256(pickle.dumps(instance, protocol=5)).digest()
+    except Exception:
+        return tuple(i for i in validate_schema(instance) if i.severity == "error")
+    memo = _schema_errors_of
+    found = memo.get(key)
+    if found is None:
+        found = memo[key] = tuple(i for i in validate_schema(instance) if i.severity == "error")
+        if len(memo) > SCHEMA_MEMO:
+            del memo[next(iter(memo))]  # the oldest
+    return found
 
 
 class RequestError(Exception):
@@ -84,7 +110,7 @@ class Server:
         instance = msg.get("instance")
         if not isinstance(instance, dict):
             raise RequestError("invalid_instance", "`instance` must be an instance IR object")
-        problems = [i for i in validate_schema(instance) if i.severity == "error"]
+        problems = schema_errors(instance)
         if problems:
             first = problems[0]
             raise RequestError("invalid_instance", f"{first.pointer or '/'}: {first.message} [{first.code}]")
@@ -198,4 +224,4 @@ def serve_stdio(stdin: IO[str] | None = None, stdout: IO[str] | None = None, ser
     return 0
 
 
-__all__ = ["Server", "serve_stdio", "IMPLEMENTATION"]
+__all__ = ["Server", "serve_stdio", "schema_errors", "IMPLEMENTATION"]
