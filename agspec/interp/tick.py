@@ -16,8 +16,8 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_mask, build_options, decode, epoch_views
-from agspec.interp.observe import observation
+from agspec.interp.observe import IDLE, IDLE_ONLY, N_ACTIONS, NO_OPTIONS, Mask, Options, action_mask, build_options, decode
+from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
 
@@ -83,13 +83,35 @@ class Simulator:
         rules.release_product(self.state, self.model, self.reset_events, forced=True)  # R-RELEASE at t = 0
         self._enter_epoch()
 
-    def _enter_epoch(self) -> None:
-        """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state."""
+    def _enter_epoch(self, candidates_unchanged: bool = False) -> None:
+        """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state.
+
+        ``candidates_unchanged``: the transition into this epoch started, completed and released
+        nothing, so every input of R-CANDIDATES (logical readiness, the holders of items, which robots
+        are free and hold nothing, their poses) is the previous epoch's, and so are its candidates.
+        Option lists and masks equal to the previous epoch's are handed out as the previous objects,
+        so that consumers which test identity (the all-agents encoder) skip them.
+        """
         state, model = self.state, self.model
-        candidates, rejected = build_candidates(state, model)
+        last = getattr(self, "decision", None)
+        if candidates_unchanged:
+            candidates, by_id, rejected = last.candidates, last.by_id, last.rejected
+        else:
+            candidates, rejected = build_candidates(state, model)
+            by_id = {c.cid: c for c in candidates}
         options = build_options(state, model, candidates)
-        masks = {c: action_mask(state, model, c, options[c]) for c in model.cells}
-        self.decision = Decision(candidates, {c.cid: c for c in candidates}, options, masks, rejected)
+        last_options, last_masks = (last.options, last.masks) if last is not None else ({}, {})
+        masks = {}
+        for c in model.cells:
+            opts = options[c]
+            if opts is not NO_OPTIONS and opts == last_options.get(c):
+                options[c] = opts = last_options[c]
+            mask = action_mask(state, model, c, opts)
+            receive, handoff = model.direction_masks[c]
+            if mask is not IDLE_ONLY and mask is not receive and mask is not handoff and mask == last_masks.get(c):
+                mask = last_masks[c]  # the shared templates need no test
+            masks[c] = mask
+        self.decision = Decision(candidates, by_id, options, masks, rejected)
         rules.bump(state, "reject_motion_infeasible", rejected)
 
     def compatibility(self) -> Compatibility:
@@ -146,6 +168,7 @@ class Simulator:
                 raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
+        seq, released = state.next_seq, state.released  # what R-CANDIDATES reads changes only with these
 
         # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
         if self.capacity:  # A-PZ-CAPACITY: only where the measures are asked for
@@ -184,7 +207,8 @@ class Simulator:
         # step 8: R-CLOCK
         state.t += 1
         # step 9: R-COMPLETION
-        progress += rules.complete_activities(state, model, events)
+        completed = rules.complete_activities(state, model, events)
+        progress += completed
         # step 10: R-REPLENISH
         rules.replenish_shelves(state, model, events)
         # step 11: (no disturbances in v1)
@@ -197,7 +221,8 @@ class Simulator:
         self.metrics.post_advance(state, progress)
         # step 15: R-TERMINATION
         result.terminated, result.truncated = self.terminated, self.truncated
-        self._enter_epoch()  # step 1 of the next epoch
+        # step 1 of the next epoch; a robot becomes free only when its activity completes (R-EXECUTION)
+        self._enter_epoch(candidates_unchanged=not completed and state.next_seq == seq and state.released == released)
         return result
 
     def _sample_capacity(self) -> None:
