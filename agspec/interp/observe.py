@@ -58,16 +58,26 @@ def pickable_tokens(state: State, model: Model) -> list[tuple[Product, str, int,
     for product in state.products:
         if product.delivered:
             continue
-        recipe = model.recipes[product.recipe]
-        needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
-        for token in recipe.raw:
-            if token in product.raw_taken or token not in needed:
+        for token in needed_raw(model, product):
+            if token in product.raw_taken:
                 continue
             row = product.source_rows[token]
             stock = state.shelves[row].get(token, 0)
             if stock > 0:
                 out.append((product, token, row, stock))
     return out
+
+
+def needed_raw(model: Model, product: Product) -> tuple[str, ...]:
+    """The raw tokens of a product's recipe (recipe order) that an operation not closed by its XOR
+    choices consumes (RC-XOR), remembered in ``model.needed_raw`` by recipe and choices."""
+    key = (product.recipe, frozenset(product.xor_choice.items()))
+    tokens = model.needed_raw.get(key)
+    if tokens is None:
+        recipe = model.recipes[product.recipe]
+        needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
+        tokens = model.needed_raw[key] = tuple(tok for tok in recipe.raw if tok in needed)
+    return tokens
 
 
 def pick_options(state: State, model: Model, cell: Cell,
@@ -101,8 +111,12 @@ def pick_options(state: State, model: Model, cell: Cell,
     return out
 
 
-def build_options(state: State, model: Model, candidates: list[Candidate]) -> dict[Cell, Options]:
-    """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id)."""
+def build_options(state: State, model: Model, candidates: list[Candidate],
+                  last: dict[Cell, Options] | None = None) -> dict[Cell, Options]:
+    """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id).
+
+    ``last`` (the previous epoch's): a robot's Options equal to its previous ones are the previous
+    object, so that consumers which test identity (the all-agents encoder) skip them."""
     per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {}  # robots in no candidate are absent
     for cand in candidates:
         frac = support_fraction(state, model, cand)
@@ -122,8 +136,10 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
                 f"{len(ops)} operation options (limit {OP_SLOTS})"
             )
         if ops or picks:
-            out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
-                                supports=tuple(f for f, _, _ in ops))
+            opts = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
+                           supports=tuple(f for f, _, _ in ops))
+            kept = last.get(cell) if last is not None else None
+            out[cell] = kept if opts == kept else opts
     return out
 
 
@@ -170,6 +186,28 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mas
     for k in range(n_ops):
         mask[OP0 + k] = True
     return tuple(mask)
+
+
+def action_masks(state: State, model: Model, options: dict[Cell, Options],
+                 last: dict[Cell, Mask] | None = None) -> dict[Cell, Mask]:
+    """O-MASK of every robot, row-major: :func:`action_mask`, with its two commonest answers (a busy
+    robot; a free, empty robot that supports nothing and has no option) found without the call.
+
+    ``last`` (the previous epoch's): a mask equal to the robot's previous one is the previous object
+    (the shared templates are always the same objects)."""
+    t, robots, templates = state.t, state.robots, model.direction_masks
+    out = {}
+    for cell in model.cells:
+        robot, opts = robots[cell], options[cell]
+        if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
+            out[cell] = IDLE_ONLY
+        elif opts is NO_OPTIONS and robot.holding is None and robot.supports is None:
+            out[cell] = templates[cell][0]
+        else:
+            mask = action_mask(state, model, cell, opts)
+            kept = last.get(cell) if last is not None else None
+            out[cell] = kept if mask == kept else mask
+    return out
 
 
 def _kind(action: int) -> tuple[str, int | None]:

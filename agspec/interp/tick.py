@@ -16,7 +16,7 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, IDLE_ONLY, N_ACTIONS, NO_OPTIONS, Mask, Options, action_mask, build_options, decode
+from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
 from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
@@ -99,18 +99,8 @@ class Simulator:
         else:
             candidates, rejected = build_candidates(state, model)
             by_id = {c.cid: c for c in candidates}
-        options = build_options(state, model, candidates)
-        last_options, last_masks = (last.options, last.masks) if last is not None else ({}, {})
-        masks = {}
-        for c in model.cells:
-            opts = options[c]
-            if opts is not NO_OPTIONS and opts == last_options.get(c):
-                options[c] = opts = last_options[c]
-            mask = action_mask(state, model, c, opts)
-            receive, handoff = model.direction_masks[c]
-            if mask is not IDLE_ONLY and mask is not receive and mask is not handoff and mask == last_masks.get(c):
-                mask = last_masks[c]  # the shared templates need no test
-            masks[c] = mask
+        options = build_options(state, model, candidates, last.options if last is not None else None)
+        masks = action_masks(state, model, options, last.masks if last is not None else None)
         self.decision = Decision(candidates, by_id, options, masks, rejected)
         rules.bump(state, "reject_motion_infeasible", rejected)
 
@@ -175,33 +165,47 @@ class Simulator:
             self._sample_capacity()
 
         # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
-        decoded: dict[Cell, tuple[str, Any]] = {}  # robots that start something (idle decodes to no activity)
+        # the decoded actions of the robots that start something, by kind
+        picks: list[tuple[Cell, dict[str, Any]]] = []
+        sends: dict[Cell, int] = {}
+        receives: dict[Cell, int] = {}
+        supports: dict[Cell, Candidate] = {}
+        deliverers: list[Cell] = []
+        masks, options, applied = d.masks, d.options, result.applied
         for c, robot_id, a in zip(model.cells, model.cell_ids, actions):
-            if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
+            if not (0 <= a < N_ACTIONS) or not masks[c][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")
                 if a != IDLE:
                     rules.bump(state, "unmasked_invalid_attempts")
                 events.append({"type": "action_coerced", "robot": robot_id, "action": a})
                 a = IDLE
-            result.applied[robot_id] = a
+            applied[robot_id] = a
             if a != IDLE:
-                decoded[c] = decode(a, d.options[c])
+                kind, arg = decode(a, options[c])
+                if kind == "support":
+                    supports[c] = arg
+                elif kind == "handoff":
+                    sends[c] = arg
+                elif kind == "receive":
+                    receives[c] = arg
+                elif kind == "pick":
+                    picks.append((c, arg))
+                else:  # deliver
+                    deliverers.append(c)
 
         progress = 0  # R-NO-PROGRESS: admissions and completions of this tick
         # step 3: R-PICK
-        rules.start_picks(state, model, [(c, arg) for c, (k, arg) in decoded.items() if k == "pick"], events)
+        rules.start_picks(state, model, picks, events)
         # step 4: R-HANDOFF
-        sends = {c: arg for c, (k, arg) in decoded.items() if k == "handoff"}
-        receives = {c: arg for c, (k, arg) in decoded.items() if k == "receive"}
         rules.start_handoffs(state, model, sends, receives, events)
         # step 5: R-SUPPORT, R-SUPPORT-LIFECYCLE, R-SWITCH-LOCK, R-ADMISSION, R-JOINT-ADMISSIBLE, R-BLOCKING,
         # R-XOR-CLOSURE, R-EXPIRY
-        rules.record_supports(state, model, {c: arg for c, (k, arg) in decoded.items() if k == "support"}, events)
+        rules.record_supports(state, model, supports, events)
         progress += rules.admit_candidates(state, model, d.by_id, events)
         rules.expire_invalid_proposals(state, set(d.by_id), events)
         # step 6: R-DELIVERY
-        rules.start_deliveries(state, model, [c for c, (k, _) in decoded.items() if k == "deliver"], events)
+        rules.start_deliveries(state, model, deliverers, events)
         # step 7: M-SAMPLING
         self.metrics.sample(state)
         # step 8: R-CLOCK
