@@ -190,19 +190,20 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mas
 
 def action_masks(state: State, model: Model, options: dict[Cell, Options],
                  last: dict[Cell, Mask] | None = None) -> dict[Cell, Mask]:
-    """O-MASK of every robot, row-major: :func:`action_mask`, with its two commonest answers (a busy
-    robot; a free, empty robot that supports nothing and has no option) found without the call.
+    """O-MASK of every robot, row-major: :func:`action_mask`, with its commonest answers (a busy robot;
+    a free robot that supports nothing, has no option and cannot deliver: its receive or handoff
+    template) found without the call.
 
     ``last`` (the previous epoch's): a mask equal to the robot's previous one is the previous object
     (the shared templates are always the same objects)."""
-    t, robots, templates = state.t, state.robots, model.direction_masks
+    t, robots, templates, last_col = state.t, state.robots, model.direction_masks, model.cols - 1
     out = {}
     for cell in model.cells:
         robot, opts = robots[cell], options[cell]
         if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
             out[cell] = IDLE_ONLY
-        elif opts is NO_OPTIONS and robot.holding is None and robot.supports is None:
-            out[cell] = templates[cell][0]
+        elif opts is NO_OPTIONS and robot.supports is None and (robot.holding is None or cell[1] != last_col):
+            out[cell] = templates[cell][0 if robot.holding is None else 1]  # R-DELIVERY: output column only
         else:
             mask = action_mask(state, model, cell, opts)
             kept = last.get(cell) if last is not None else None
@@ -225,13 +226,14 @@ def _kind(action: int) -> tuple[str, int | None]:
     return ("support", action - OP0)
 
 
-_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))  # one entry per action integer, looked up by decode
+# one entry per action integer: (kind, pick or operation slot, or handoff or receive direction)
+ACTION_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
 
 
 def decode(action: int, options: Options) -> tuple[str, Any]:
     """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
     the direction of a handoff or receive."""
-    entry = _KINDS[action]
+    entry = ACTION_KINDS[action]
     kind = entry[0]
     if kind == "pick":
         return (kind, options.picks[entry[1]])

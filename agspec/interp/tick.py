@@ -16,7 +16,7 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
+from agspec.interp.observe import ACTION_KINDS, IDLE, N_ACTIONS, Mask, Options, action_masks, build_options
 from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
@@ -181,16 +181,16 @@ class Simulator:
                 events.append({"type": "action_coerced", "robot": robot_id, "action": a})
                 a = IDLE
             applied[robot_id] = a
-            if a != IDLE:
-                kind, arg = decode(a, options[c])
+            if a != IDLE:  # O-ACTION-ENCODING, as decode does it: slots name the robot's options
+                kind, slot = ACTION_KINDS[a]
                 if kind == "support":
-                    supports[c] = arg
+                    supports[c] = options[c].operations[slot]
                 elif kind == "handoff":
-                    sends[c] = arg
+                    sends[c] = slot
                 elif kind == "receive":
-                    receives[c] = arg
+                    receives[c] = slot
                 elif kind == "pick":
-                    picks.append((c, arg))
+                    picks.append((c, options[c].picks[slot]))
                 else:  # deliver
                     deliverers.append(c)
 
