@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from agspec.catalogue import load_instance
 from agspec.interp.candidates import build_candidates
+from agspec.interp.geometry import PlanMemo
 from agspec.interp.observe import IDLE, SlotOverflow, action_mask, build_options
 from agspec.interp.tick import Simulator
 from strategies_scenarios import bundles
@@ -26,7 +27,12 @@ from strategies_scenarios import bundles
 def _stale_parts(sim: Simulator) -> list[str]:
     """What of the decision snapshot differs from the one built afresh from the state (empty: none)."""
     state, model, d = sim.state, sim.model, sim.decision
-    candidates, rejected = build_candidates(state, model)
+    memos = model.realized, model.plans
+    model.__dict__["realized"], model.__dict__["plans"] = {}, PlanMemo(model.profile)  # afresh, memos empty
+    try:
+        candidates, rejected = build_candidates(state, model)
+    finally:
+        model.__dict__["realized"], model.__dict__["plans"] = memos
     options = build_options(state, model, candidates)
     out = []
     if d.candidates != candidates or d.rejected != rejected:

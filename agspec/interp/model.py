@@ -261,12 +261,6 @@ class Model:
         function of its occurrence, members, holders and the members' poses (agspec.interp.candidates)."""
         return {}
 
-    @cached_property
-    def needed_raw(self) -> dict[tuple, tuple[str, ...]]:
-        """O-PICK-OPTIONS: the raw tokens, in recipe order, that some operation of a product not closed
-        by its XOR choices consumes, by (recipe, XOR choices) (a cache, not state)."""
-        return {}
-
     def adjacent(self, a: Cell, b: Cell) -> bool:
         """G_manip adjacency (D-TOPOLOGY), from agspec.ir.topology."""
         return (a, b) in self._adjacency

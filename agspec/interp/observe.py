@@ -58,26 +58,16 @@ def pickable_tokens(state: State, model: Model) -> list[tuple[Product, str, int,
     for product in state.products:
         if product.delivered:
             continue
-        for token in needed_raw(model, product):
-            if token in product.raw_taken:
+        recipe = model.recipes[product.recipe]
+        needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
+        for token in recipe.raw:
+            if token in product.raw_taken or token not in needed:
                 continue
             row = product.source_rows[token]
             stock = state.shelves[row].get(token, 0)
             if stock > 0:
                 out.append((product, token, row, stock))
     return out
-
-
-def needed_raw(model: Model, product: Product) -> tuple[str, ...]:
-    """The raw tokens of a product's recipe (recipe order) that an operation not closed by its XOR
-    choices consumes (RC-XOR), remembered in ``model.needed_raw`` by recipe and choices."""
-    key = (product.recipe, frozenset(product.xor_choice.items()))
-    tokens = model.needed_raw.get(key)
-    if tokens is None:
-        recipe = model.recipes[product.recipe]
-        needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
-        tokens = model.needed_raw[key] = tuple(tok for tok in recipe.raw if tok in needed)
-    return tokens
 
 
 def pick_options(state: State, model: Model, cell: Cell,
