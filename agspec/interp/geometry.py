@@ -139,6 +139,14 @@ class RobotPose:
     ee: Point
     q: JointVector = ZERO_JOINTS
 
+    def __hash__(self) -> int:
+        # poses are keys of the plan and realization memos, hashed many times per epoch: hashed once
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash((self.ee, self.q))
+            object.__setattr__(self, "_hash", h)
+        return h
+
 
 def rest_pose(cell: Cell, spacing: float) -> RobotPose:
     """G-END-EFFECTOR: the initial pose — end effector on the base, joint proxy all zeros."""

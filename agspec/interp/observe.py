@@ -101,8 +101,12 @@ def pick_options(state: State, model: Model, cell: Cell,
     return out
 
 
-def build_options(state: State, model: Model, candidates: list[Candidate]) -> dict[Cell, Options]:
-    """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id)."""
+def build_options(state: State, model: Model, candidates: list[Candidate],
+                  last: dict[Cell, Options] | None = None) -> dict[Cell, Options]:
+    """O-OPERATION-OPTIONS: each robot's operation options ordered by (-support, candidate id).
+
+    ``last`` (the previous epoch's): a robot's Options equal to its previous ones are the previous
+    object, so that consumers which test identity (the all-agents encoder) skip them."""
     per_robot: dict[Cell, list[tuple[float, str, Candidate]]] = {}  # robots in no candidate are absent
     for cand in candidates:
         frac = support_fraction(state, model, cand)
@@ -122,8 +126,10 @@ def build_options(state: State, model: Model, candidates: list[Candidate]) -> di
                 f"{len(ops)} operation options (limit {OP_SLOTS})"
             )
         if ops or picks:
-            out[cell] = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
-                                supports=tuple(f for f, _, _ in ops))
+            opts = Options(picks=tuple(picks), operations=tuple(c for _, _, c in ops),
+                           supports=tuple(f for f, _, _ in ops))
+            kept = last.get(cell) if last is not None else None
+            out[cell] = kept if opts == kept else opts
     return out
 
 
@@ -172,6 +178,29 @@ def action_mask(state: State, model: Model, cell: Cell, options: Options) -> Mas
     return tuple(mask)
 
 
+def action_masks(state: State, model: Model, options: dict[Cell, Options],
+                 last: dict[Cell, Mask] | None = None) -> dict[Cell, Mask]:
+    """O-MASK of every robot, row-major: :func:`action_mask`, with its commonest answers (a busy robot;
+    a free robot that supports nothing, has no option and cannot deliver: its receive or handoff
+    template) found without the call.
+
+    ``last`` (the previous epoch's): a mask equal to the robot's previous one is the previous object
+    (the shared templates are always the same objects)."""
+    t, robots, templates, last_col = state.t, state.robots, model.direction_masks, model.cols - 1
+    out = {}
+    for cell in model.cells:
+        robot, opts = robots[cell], options[cell]
+        if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
+            out[cell] = IDLE_ONLY
+        elif opts is NO_OPTIONS and robot.supports is None and (robot.holding is None or cell[1] != last_col):
+            out[cell] = templates[cell][0 if robot.holding is None else 1]  # R-DELIVERY: output column only
+        else:
+            mask = action_mask(state, model, cell, opts)
+            kept = last.get(cell) if last is not None else None
+            out[cell] = kept if mask == kept else mask
+    return out
+
+
 def _kind(action: int) -> tuple[str, int | None]:
     """O-ACTION-ENCODING: the kind of an integer action and its slot or direction."""
     if action == IDLE:
@@ -187,13 +216,14 @@ def _kind(action: int) -> tuple[str, int | None]:
     return ("support", action - OP0)
 
 
-_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))  # one entry per action integer, looked up by decode
+# one entry per action integer: (kind, pick or operation slot, or handoff or receive direction)
+ACTION_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
 
 
 def decode(action: int, options: Options) -> tuple[str, Any]:
     """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
     the direction of a handoff or receive."""
-    entry = _KINDS[action]
+    entry = ACTION_KINDS[action]
     kind = entry[0]
     if kind == "pick":
         return (kind, options.picks[entry[1]])

@@ -16,8 +16,8 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_mask, build_options, decode, epoch_views
-from agspec.interp.observe import observation
+from agspec.interp.observe import ACTION_KINDS, IDLE, N_ACTIONS, Mask, Options, action_masks, build_options
+from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
 
@@ -83,13 +83,25 @@ class Simulator:
         rules.release_product(self.state, self.model, self.reset_events, forced=True)  # R-RELEASE at t = 0
         self._enter_epoch()
 
-    def _enter_epoch(self) -> None:
-        """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state."""
+    def _enter_epoch(self, candidates_unchanged: bool = False) -> None:
+        """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state.
+
+        ``candidates_unchanged``: the transition into this epoch started, completed and released
+        nothing, so every input of R-CANDIDATES (logical readiness, the holders of items, which robots
+        are free and hold nothing, their poses) is the previous epoch's, and so are its candidates.
+        Option lists and masks equal to the previous epoch's are handed out as the previous objects,
+        so that consumers which test identity (the all-agents encoder) skip them.
+        """
         state, model = self.state, self.model
-        candidates, rejected = build_candidates(state, model)
-        options = build_options(state, model, candidates)
-        masks = {c: action_mask(state, model, c, options[c]) for c in model.cells}
-        self.decision = Decision(candidates, {c.cid: c for c in candidates}, options, masks, rejected)
+        last = getattr(self, "decision", None)
+        if candidates_unchanged:
+            candidates, by_id, rejected = last.candidates, last.by_id, last.rejected
+        else:
+            candidates, rejected = build_candidates(state, model)
+            by_id = {c.cid: c for c in candidates}
+        options = build_options(state, model, candidates, last.options if last is not None else None)
+        masks = action_masks(state, model, options, last.masks if last is not None else None)
+        self.decision = Decision(candidates, by_id, options, masks, rejected)
         rules.bump(state, "reject_motion_infeasible", rejected)
 
     def compatibility(self) -> Compatibility:
@@ -146,45 +158,61 @@ class Simulator:
                 raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
+        seq, released = state.next_seq, state.released  # what R-CANDIDATES reads changes only with these
 
         # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
         if self.capacity:  # A-PZ-CAPACITY: only where the measures are asked for
             self._sample_capacity()
 
         # step 2: R-ACTION-VALIDATION, R-IDLE (an idle or coerced action decodes to no activity)
-        decoded: dict[Cell, tuple[str, Any]] = {}  # robots that start something (idle decodes to no activity)
+        # the decoded actions of the robots that start something, by kind
+        picks: list[tuple[Cell, dict[str, Any]]] = []
+        sends: dict[Cell, int] = {}
+        receives: dict[Cell, int] = {}
+        supports: dict[Cell, Candidate] = {}
+        deliverers: list[Cell] = []
+        masks, options, applied = d.masks, d.options, result.applied
         for c, robot_id, a in zip(model.cells, model.cell_ids, actions):
-            if not (0 <= a < N_ACTIONS) or not d.masks[c][a]:
+            if not (0 <= a < N_ACTIONS) or not masks[c][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")
                 if a != IDLE:
                     rules.bump(state, "unmasked_invalid_attempts")
                 events.append({"type": "action_coerced", "robot": robot_id, "action": a})
                 a = IDLE
-            result.applied[robot_id] = a
-            if a != IDLE:
-                decoded[c] = decode(a, d.options[c])
+            applied[robot_id] = a
+            if a != IDLE:  # O-ACTION-ENCODING, as decode does it: slots name the robot's options
+                kind, slot = ACTION_KINDS[a]
+                if kind == "support":
+                    supports[c] = options[c].operations[slot]
+                elif kind == "handoff":
+                    sends[c] = slot
+                elif kind == "receive":
+                    receives[c] = slot
+                elif kind == "pick":
+                    picks.append((c, options[c].picks[slot]))
+                else:  # deliver
+                    deliverers.append(c)
 
         progress = 0  # R-NO-PROGRESS: admissions and completions of this tick
         # step 3: R-PICK
-        rules.start_picks(state, model, [(c, arg) for c, (k, arg) in decoded.items() if k == "pick"], events)
+        rules.start_picks(state, model, picks, events)
         # step 4: R-HANDOFF
-        sends = {c: arg for c, (k, arg) in decoded.items() if k == "handoff"}
-        receives = {c: arg for c, (k, arg) in decoded.items() if k == "receive"}
         rules.start_handoffs(state, model, sends, receives, events)
         # step 5: R-SUPPORT, R-SUPPORT-LIFECYCLE, R-SWITCH-LOCK, R-ADMISSION, R-JOINT-ADMISSIBLE, R-BLOCKING,
         # R-XOR-CLOSURE, R-EXPIRY
-        rules.record_supports(state, model, {c: arg for c, (k, arg) in decoded.items() if k == "support"}, events)
+        rules.record_supports(state, model, supports, events)
         progress += rules.admit_candidates(state, model, d.by_id, events)
         rules.expire_invalid_proposals(state, set(d.by_id), events)
         # step 6: R-DELIVERY
-        rules.start_deliveries(state, model, [c for c, (k, _) in decoded.items() if k == "deliver"], events)
+        rules.start_deliveries(state, model, deliverers, events)
         # step 7: M-SAMPLING
         self.metrics.sample(state)
         # step 8: R-CLOCK
         state.t += 1
         # step 9: R-COMPLETION
-        progress += rules.complete_activities(state, model, events)
+        completed = rules.complete_activities(state, model, events)
+        progress += completed
         # step 10: R-REPLENISH
         rules.replenish_shelves(state, model, events)
         # step 11: (no disturbances in v1)
@@ -197,7 +225,8 @@ class Simulator:
         self.metrics.post_advance(state, progress)
         # step 15: R-TERMINATION
         result.terminated, result.truncated = self.terminated, self.truncated
-        self._enter_epoch()  # step 1 of the next epoch
+        # step 1 of the next epoch; a robot becomes free only when its activity completes (R-EXECUTION)
+        self._enter_epoch(candidates_unchanged=not completed and state.next_seq == seq and state.released == released)
         return result
 
     def _sample_capacity(self) -> None:

@@ -100,20 +100,20 @@ class BatchEncoder:
             row = self._rows[key] = robot_features(cls, product, busy, False, op, role)
         return row
 
-    def _operation_slot(self, cand, cell, frac: float, pending: bool) -> list[float]:
-        """operation_features of one option slot, remembered per candidate object: candidates are immutable
-        and the interpreter hands out the same object while its realization is unchanged.  The entry keeps
-        the candidate alive, so its id is never reused while the entry exists."""
+    def _operation_slot(self, cand, cell, frac: float, pending: bool) -> np.ndarray:
+        """operation_features of one option slot as a float32 row, remembered per candidate object:
+        candidates are immutable and the interpreter hands out the same object while its realization is
+        unchanged.  The entry keeps the candidate alive, so its id is never reused while the entry exists."""
         key = (id(cand), cell, frac, pending)
         entry = self._slots.get(key)
         if entry is not None and entry[0] is cand:
             return entry[1]
         if len(self._slots) > _MEMO_LIMIT:
             self._slots.clear()
-        row = operation_features(cand.op.id, cand.op.type, cand.op.kmin, cand.size,
-                                 next(r for m, r in cand.roles if m == cell), cand.plan.duration,
-                                 cand.plan.min_reach_margin, frac, cand.pid, cand.recipe, pending, cand.members,
-                                 cell, self.pub)
+        row = np.array(operation_features(cand.op.id, cand.op.type, cand.op.kmin, cand.size,
+                                          next(r for m, r in cand.roles if m == cell), cand.plan.duration,
+                                          cand.plan.min_reach_margin, frac, cand.pid, cand.recipe, pending,
+                                          cand.members, cell, self.pub), dtype=np.float32)
         self._slots[key] = (cand, row)
         return row
 
@@ -133,10 +133,10 @@ class BatchEncoder:
             out[_PICKS_AT:_PICKS_AT + PICK_DIM * len(opts.picks)] = [
                 v for p in opts.picks for v in pick_features(p, span_r)]
         if opts.operations:
-            cell = self.cells[k]
-            out[_OPS_AT:_OPS_AT + OP_DIM * len(opts.operations)] = [
-                v for cand, frac in zip(opts.operations, opts.supports)
-                for v in self._operation_slot(cand, cell, frac, cand.cid == supports)]
+            cell, at = self.cells[k], _OPS_AT
+            for cand, frac in zip(opts.operations, opts.supports):
+                out[at:at + OP_DIM] = self._operation_slot(cand, cell, frac, cand.cid == supports)
+                at += OP_DIM
 
     def _mask_row(self, mask) -> np.ndarray | bytes:
         entry = self._template_rows.get(id(mask))

@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from agspec.interp.observe import N_ACTIONS
+from agspec.interp.observe import IDLE, N_ACTIONS
 from agspec.interp.tick import Simulator
 from agspec.ir.instance import make_instance
 from agspec.marl import curriculum
@@ -162,6 +162,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
             raise AdapterError("a new instance must keep the grid size of the environment's scenario")
         self.possible_agents = agents
         self._agent_set = frozenset(agents)
+        self._agent_position = {agent: k for k, agent in enumerate(agents)}
         self.agents = []
         if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
             self._observation_spaces = {a: spaces.Dict({
@@ -237,16 +238,17 @@ class AssemblyGridParallelEnv(ParallelEnv):
         if not self.agents:
             raise AdapterError("step() after the episode ended; call reset()")
         known = self._agent_set
-        unknown = [a for a in actions if a not in known]
-        if unknown:
+        if not known.issuperset(actions):
+            unknown = [a for a in actions if a not in known]
             raise AdapterError(f"unknown agent(s) {unknown}; agents are robot ids such as {self.possible_agents[0]!r}")
-        joint = {}
+        joint = [IDLE] * len(self.possible_agents)  # row-major, as the interpreter takes a list
+        position = self._agent_position
         for agent, value in actions.items():
             if type(value) is int:  # the common case, without NumPy's round trip
-                joint[agent] = value
+                joint[position[agent]] = value
                 continue
             try:
-                joint[agent] = int(np.asarray(value).item())
+                joint[position[agent]] = int(np.asarray(value).item())
             except (TypeError, ValueError):
                 raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
         # the encoder read every robot's pending support at the last epoch: the state this step starts from
