@@ -98,7 +98,9 @@ def fresh(python: str) -> None:
         t1 = time.perf_counter()
         run = subprocess.run(["pytest", "-q"], cwd=clone, env=env, capture_output=True, text=True)
         t2 = time.perf_counter()
-        print(run.stdout.strip().splitlines()[-1] if run.stdout.strip() else run.stderr[-2000:])
+        lines = run.stdout.strip().splitlines()
+        print("\n".join([line for line in lines if line.startswith(("FAILED", "ERROR"))] + lines[-1:])
+              if lines else run.stderr[-2000:])
         print(f"install {t1 - t0:.0f} s, pytest {t2 - t1:.0f} s ({(t2 - t1) / 60:.1f} min), exit {run.returncode}, "
               f"load average before {load:.2f}, after {os.getloadavg()[0]:.2f}")
 

@@ -417,15 +417,18 @@ def mask_hides(session: Session) -> None:
     """Mask hiding a legal local action: receiving from a diagonal neighbour is masked out."""
     from agspec.interp import observe, tick
 
-    orig = observe.action_mask
+    orig = observe.action_masks  # every robot's O-MASK of an epoch, as the transition asks for them
 
-    def action_mask(state, model, cell, options):
-        mask = list(orig(state, model, cell, options))  # masks are immutable tuples
-        for d in (1, 3, 5, 7):  # BUG: von Neumann thinking on a Moore grid
-            mask[observe.RECEIVE0 + d] = False
-        return tuple(mask)
+    def action_masks(state, model, options, last=None):
+        out = {}
+        for cell, mask in orig(state, model, options, last).items():
+            mask = list(mask)  # masks are immutable tuples
+            for d in (1, 3, 5, 7):  # BUG: von Neumann thinking on a Moore grid
+                mask[observe.RECEIVE0 + d] = False
+            out[cell] = tuple(mask)
+        return out
 
-    tick.action_mask = action_mask
+    tick.action_masks = action_masks
 
 
 @mutant("topology-ignored", "D-TOPOLOGY / O-MASK / INV-MASKING", "fail",
