@@ -50,7 +50,7 @@ def over(times: dict[str, tuple[float, bool]], threshold: float) -> dict[str, fl
     """The entries the rule gives: node id (or function, when every case is over) -> seconds."""
     by_function: dict[str, list[tuple[str, float]]] = collections.defaultdict(list)
     for nodeid, (seconds, skipped) in times.items():
-        if not skipped:
+        if not skipped and nodeid.split("[", 1)[0] not in tiers.SAMPLED:
             by_function[nodeid.split("[", 1)[0]].append((nodeid, seconds))
     out = {}
     for function, cases in by_function.items():

@@ -19,6 +19,17 @@ def test_every_listed_test_exists():
     assert not problems, "\n".join(problems)
 
 
+def test_no_case_of_a_sampled_matrix_is_listed():
+    listed = [e.test for e in tiers.entries() if e.test.split("[", 1)[0] in tiers.SAMPLED]
+    assert not listed, f"the cover decides these cases' tier: {listed}"
+
+
+def test_the_sampled_matrices_are_known():
+    users = {f"tests/{p.name}" for p in (ROOT / "tests").glob("test_*.py")
+             if p.name != "test_tiers.py" and "sample_params(" in p.read_text(encoding="utf-8")}
+    assert users == {s.split("::", 1)[0] for s in tiers.SAMPLED}
+
+
 def test_a_renamed_test_is_reported(tmp_path):
     listed = tmp_path / "extended.txt"
     listed.write_text("# a comment\n  3.5  tests/test_tiers.py::test_no_such_test\n"
