@@ -133,8 +133,12 @@ def test_interrupt_stops_every_child_the_workers_started(kind, tmp_path):  # CAM
 # --------------------------------------------------------------------------- commands
 
 
+# the command of this interpreter's agspec, found whether or not its environment's bin is on PATH
+AGSPEC = [sys.executable, "-m", "agspec.cli.main"]
+
+
 def _agspec(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run(["agspec", *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    return subprocess.run([*AGSPEC, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
 EVALUATE = ["evaluate", "--scenario", "coalition-easy", "--scenario", "flow-easy", "--indices", "0-2",
@@ -262,7 +266,7 @@ DIFF_SUBJECTS = [str(MUTANTS / "instances" / f"{name}.json") for name in ("pair-
 
 
 def _diff(*extra: str, cwd: Path, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
-    args = ["agspec", "diff", "--horizon", "20", "--controller", "greedy", "--controller", "random",
+    args = [*AGSPEC, "diff", "--horizon", "20", "--controller", "greedy", "--controller", "random",
             "--shrink-budget", "30", "-o", "out", "--format", "json", *extra]
     for subject in DIFF_SUBJECTS:
         args += ["--scenario", subject]
@@ -346,7 +350,7 @@ def test_diff_interrupt_stops_every_simulator_the_workers_started(tmp_path):  # 
         finally:
             time.sleep(600)
     """))
-    proc = subprocess.Popen(["agspec", "diff", "--impl", "reference", "--impl", f"{sys.executable} {wrapper}",
+    proc = subprocess.Popen([*AGSPEC, "diff", "--impl", "reference", "--impl", f"{sys.executable} {wrapper}",
                              "--scenario", "flow-easy", "--episodes", "40", "--small", "0", "--horizon", "200",
                              "-j", "2", "-o", str(tmp_path / "out")],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)

@@ -162,6 +162,9 @@ def check(targets: tuple[str, ...], fmt: str, jobs: int | None, output: str | No
 
     report_path = output
     if len(targets) == 1 and not Path(targets[0]).is_dir() and report_path is None:
+        if campaign.kind != "local":  # never a silently ignored option: say where the one trace is checked
+            stderr.print(f"note: one trace is checked in this process; --executor {campaign.kind} distributes "
+                         "several traces (a directory or several files)", markup=False)
         raise SystemExit(view.check_trace_command(targets[0], fmt))
     from agspec.cli.check_view import check_many_command
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from agspec.campaign.executor import ExecutorSpec
+from agspec.campaign.executor import ExecutorError, ExecutorSpec
 from agspec.catalogue import CatalogueError, InvalidDocumentError, InvalidInstanceError, parse_indices
 from agspec.cli.common import EXIT_HARNESS, EXIT_INVALID, EXIT_OK, EXIT_USAGE, FORMAT_OPTION, SEED_RANGE, Choice
 from agspec.cli.common import emit_json, fail, stderr, stdout
@@ -123,9 +123,13 @@ def diff(impls, scenarios, indices, horizon, seed, controllers, small, illegal_r
             status = "[green]same[/]" if run.divergence is None else "[red]DIVERGES[/]"
             log(f"  {label:<48} {run.ticks:>4} ticks  {status}")
 
-        exploration = D.explore(pair, subjects, controllers=controllers or ("random", "greedy"), seed=seed,
-                                ticks=ticks, on_episode=on_episode, first_only=not keep_going, executor=campaign,
-                                specs=(impls[0], impls[1]), timeout=impl_timeout, illegal_rate=illegal_rate)
+        try:
+            exploration = D.explore(pair, subjects, controllers=controllers or ("random", "greedy"), seed=seed,
+                                    ticks=ticks, on_episode=on_episode, first_only=not keep_going,
+                                    executor=campaign, specs=(impls[0], impls[1]), timeout=impl_timeout,
+                                    illegal_rate=illegal_rate)
+        except ExecutorError as exc:  # CAMP-EXECUTOR: an executor that cannot start is a usage error, as elsewhere
+            fail(str(exc))
         findings += exploration.findings
         for subject, cause in exploration.errors:  # CAMP-FAULTS: reported, never dropped
             log(f"  {subject.label:<48} [red]ERROR[/] {cause}")
