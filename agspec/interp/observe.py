@@ -217,13 +217,13 @@ def _kind(action: int) -> tuple[str, int | None]:
 
 
 # one entry per action integer: (kind, pick or operation slot, or handoff or receive direction)
-ACTION_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
+_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
 
 
 def decode(action: int, options: Options) -> tuple[str, Any]:
     """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
     the direction of a handoff or receive."""
-    entry = ACTION_KINDS[action]
+    entry = _KINDS[action]
     kind = entry[0]
     if kind == "pick":
         return (kind, options.picks[entry[1]])

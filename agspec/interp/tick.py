@@ -16,7 +16,7 @@ from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
-from agspec.interp.observe import ACTION_KINDS, IDLE, N_ACTIONS, Mask, Options, action_masks, build_options
+from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
 from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Robot, State, cell_id
 
@@ -181,16 +181,16 @@ class Simulator:
                 events.append({"type": "action_coerced", "robot": robot_id, "action": a})
                 a = IDLE
             applied[robot_id] = a
-            if a != IDLE:  # O-ACTION-ENCODING, as decode does it: slots name the robot's options
-                kind, slot = ACTION_KINDS[a]
+            if a != IDLE:  # O-ACTION-ENCODING: slots name the robot's options
+                kind, arg = decode(a, options[c])
                 if kind == "support":
-                    supports[c] = options[c].operations[slot]
+                    supports[c] = arg
                 elif kind == "handoff":
-                    sends[c] = slot
+                    sends[c] = arg
                 elif kind == "receive":
-                    receives[c] = slot
+                    receives[c] = arg
                 elif kind == "pick":
-                    picks.append((c, options[c].picks[slot]))
+                    picks.append((c, arg))
                 else:  # deliver
                     deliverers.append(c)
 
