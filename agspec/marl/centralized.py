@@ -17,7 +17,7 @@ from gymnasium import spaces
 from agspec.interp.observe import N_ACTIONS
 from agspec.marl.encoding import OBS_DIM
 from agspec.marl.parallel import AdapterError, AssemblyGridParallelEnv
-from agspec.marl.rewards import milestone_rewards
+from agspec.marl.rewards import delivered_value, milestone_rewards
 
 REWARDS = ("sparse-delivery-v1", "coalition_milestone_v1")
 
@@ -53,7 +53,7 @@ class CentralizedEnv(gym.Env):
     def sim(self):
         return self.par.sim
 
-    def _stack(self, per_agent: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    def _stack(self) -> dict[str, np.ndarray]:
         # A-PZ-ARRAYS: the parallel env's arrays are every robot's rows in this env's (row-major) order
         return {
             "observation": self.par.observation_array,
@@ -65,23 +65,22 @@ class CentralizedEnv(gym.Env):
         super().reset(seed=seed)
         if seed is not None:
             self.action_space.seed(seed)
-        per_agent, _ = self.par.reset(seed=seed, options=options)
-        obs = self._stack(per_agent)
+        self.par.reset(seed=seed, options=options)
+        obs = self._stack()
         return obs, {"action_mask": obs["action_mask"]}
 
     def step(self, action: Any):
         joint = np.asarray(action).reshape(-1)
         if joint.shape != (len(self.robots),):
             raise AdapterError(f"action must hold one integer per robot ({len(self.robots)}), got shape {np.shape(action)}")
-        per_agent, rewards, terms, truncs, _ = self.par.step(dict(zip(self.robots, joint.tolist())))
+        result, truncated = self.par.step_joint(joint.tolist())
         if self.reward_name == "sparse-delivery-v1":
-            reward = rewards[self.robots[0]]
+            reward = delivered_value(result.events, self.par.sim.state.products)  # A-REWARD-SPARSE
         else:  # the team reward with the agent-mean support credit (the paper's shared form)
             _, _, shared = milestone_rewards(self.par.last_events, self.par.supporting_before, self.par.supporting(), "mean")
             reward = shared[self.robots[0]]
-        obs = self._stack(per_agent)
-        first = self.robots[0]
-        return obs, float(reward), bool(terms[first]), bool(truncs[first]), {"action_mask": obs["action_mask"]}
+        obs = self._stack()
+        return obs, float(reward), bool(result.terminated), truncated, {"action_mask": obs["action_mask"]}
 
     def render(self):
         return self.par.render()

@@ -187,70 +187,112 @@ def state_dim(model: Model) -> int:
     return ROBOT_STATE_DIM * model.rows * model.cols + model.wip_cap * product + GLOBAL_STATE_DIM + model.rows * len(raws)
 
 
-def encode_state(state: State, model: Model) -> np.ndarray:
-    """A-STATE-VECTOR: the privileged global state (for centralized critics, never for actors)."""
-    ops, tokens, raws = _vocabulary(model)
-    out = np.zeros(state_dim(model), dtype=np.float32)
-    t = state.t
-    span_r, span_c = max(model.rows - 1, 1), max(model.cols - 1, 1)
-    spacing = float(model.profile["spacing"])
-    at = 0
-    for cell in model.cells:  # robots, row-major
-        r = state.robots[cell]
+class StateEncoder:
+    """A-STATE-VECTOR of one model's states, kept in one array between epochs.
+
+    The layout depends on the model only; a robot's 19 values depend on its own fields and on t only
+    through the ticks it has left and its switch lock, so a robot's row is rewritten only when those
+    inputs change (most robots, most epochs, are at rest).  :func:`encode_state` is a fresh encoder's
+    first epoch, so the two cannot disagree.
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.ops, self.tokens, self.raws = _vocabulary(model)
+        self.span_r, self.span_c = max(model.rows - 1, 1), max(model.cols - 1, 1)
+        self.spacing = float(model.profile["spacing"])
+        self.product_dim = PRODUCT_FIXED_DIM + len(self.ops) + 3 * len(self.tokens)
+        self.products_at = ROBOT_STATE_DIM * len(model.cells)
+        self.global_at = self.products_at + model.wip_cap * self.product_dim
+        # a held token's place: 0.5 + half its row and column fractions (0 when nobody holds it)
+        self.place = {c: (0.5 + 0.5 * _frac(c[0], self.span_r), 0.5 + 0.5 * _frac(c[1], self.span_c))
+                      for c in model.cells}
+        self.out = np.zeros(state_dim(model), dtype=np.float32)
+        self._robot_keys: list[tuple | None] = [None] * len(model.cells)
+        self._product_rows: list[list[float] | None] = [None] * model.wip_cap
+        self._shelves: list[float] | None = None
+
+    def reset(self) -> None:
+        """A new episode: a product id may name another recipe, so no remembered row is trusted."""
+        self._robot_keys = [None] * len(self._robot_keys)
+
+    @staticmethod
+    def robot_key(r: Any, t: int) -> tuple:
+        """Everything a robot's 19 values read at epoch t (its cell is fixed; its held product's recipe is
+        fixed for the episode): equal keys, equal rows."""
+        left = r.busy_until - t
+        return (r.holding, left if left > 0 else 0, r.incoming, r.supports, r.op_label, r.role_label, r.pose.ee,
+                t < r.switch_lock, r.activity is not None, r.team_participations)
+
+    def _robot_row(self, state: State, cell: tuple[int, int], r: Any, t: int) -> list[float]:
+        model, spacing = self.model, self.spacing
+        row = [0.0] * ROBOT_STATE_DIM
         if r.holding is not None:
             recipe = model.recipes[state.products[r.holding[0]].recipe]
-            cls = 3 if r.holding[1] == recipe.terminal else (1 if r.holding[1] in recipe.raw else 2)
-            out[at + cls] = 1.0
-            out[at + 4] = (r.holding[0] % 256) / 255.0
+            row[3 if r.holding[1] == recipe.terminal else (1 if r.holding[1] in recipe.raw else 2)] = 1.0
+            row[4] = (r.holding[0] % 256) / 255.0
         else:
-            out[at] = 1.0
-        out[at + 5] = float(not r.free(t))
-        out[at + 6] = _saturate(max(r.busy_until - t, 0))
-        out[at + 7] = float(r.incoming is not None)
-        out[at + 8] = float(r.supports is not None)
-        out[at + 9] = str_hash(r.supports)
-        out[at + 10] = str_hash(r.op_label)
-        out[at + 11] = str_hash(r.role_label)
-        out[at + 12] = _frac(cell[0], span_r)
-        out[at + 13] = _frac(cell[1], span_c)
+            row[0] = 1.0
+        row[5] = float(not r.free(t))
+        row[6] = _saturate(max(r.busy_until - t, 0))
+        row[7] = float(r.incoming is not None)
+        row[8] = float(r.supports is not None)
+        row[9] = str_hash(r.supports)
+        row[10] = str_hash(r.op_label)
+        row[11] = str_hash(r.role_label)
+        row[12] = _frac(cell[0], self.span_r)
+        row[13] = _frac(cell[1], self.span_c)
         ee = r.pose.ee
-        out[at + 14] = _frac(float(ee[0]) / spacing + 1.0, model.cols + 1)
-        out[at + 15] = _frac(float(ee[1]) / spacing + 1.0, model.rows + 1)
-        out[at + 16] = float(t < r.switch_lock)
-        out[at + 17] = float(r.activity is not None)
-        out[at + 18] = _saturate(r.team_participations)
-        at += ROBOT_STATE_DIM
-    open_products = [p for p in state.products if not p.delivered][: model.wip_cap]
-    product_dim = PRODUCT_FIXED_DIM + len(ops) + 3 * len(tokens)
-    for slot in range(model.wip_cap):
-        if slot < len(open_products):
-            p = open_products[slot]
-            recipe = model.recipes[p.recipe]
-            out[at] = 1.0
-            out[at + 1] = (p.pid % 256) / 255.0
-            out[at + 2] = str_hash(p.recipe)
-            out[at + 3] = _saturate(t - p.spawn_time)
-            out[at + 4] = _frac(len(p.completed), len(recipe.operations))
-            out[at + 5] = _frac(len(p.in_progress), len(recipe.operations))
-            for k, op in enumerate(ops):
-                out[at + 6 + k] = 1.0 if op in p.completed else (0.5 if op in p.in_progress else 0.0)
-            for k, tok in enumerate(tokens):
-                base = at + 6 + len(ops) + 3 * k
-                out[base] = float(tok in p.raw_taken)
-                holder = state.item_holder.get((p.pid, tok))
-                if holder is not None:
-                    out[base + 1] = 0.5 + 0.5 * _frac(holder[0], span_r)
-                    out[base + 2] = 0.5 + 0.5 * _frac(holder[1], span_c)
-        at += product_dim
-    out[at] = _frac(t, model.horizon)
-    out[at + 1] = _frac(state.wip, model.wip_cap)
-    out[at + 2] = _saturate(state.released)
-    out[at + 3] = _saturate(state.delivered)
-    out[at + 4] = _saturate(len(state.proposals))
-    out[at + 5] = _saturate(len(state.activities))
-    at += GLOBAL_STATE_DIM
-    for row in range(model.rows):
-        for tok in raws:
-            out[at] = _frac(state.shelves[row].get(tok, 0), model.shelf_capacity)
-            at += 1
-    return out
+        row[14] = _frac(float(ee[0]) / spacing + 1.0, model.cols + 1)
+        row[15] = _frac(float(ee[1]) / spacing + 1.0, model.rows + 1)
+        row[16] = float(t < r.switch_lock)
+        row[17] = float(r.activity is not None)
+        row[18] = _saturate(r.team_participations)
+        return row
+
+    def _product_row(self, state: State, p: Any, t: int) -> list[float]:
+        recipe = self.model.recipes[p.recipe]
+        n_ops = len(recipe.operations)
+        row = [1.0, (p.pid % 256) / 255.0, str_hash(p.recipe), _saturate(t - p.spawn_time),
+               _frac(len(p.completed), n_ops), _frac(len(p.in_progress), n_ops)]
+        row += [1.0 if op in p.completed else (0.5 if op in p.in_progress else 0.0) for op in self.ops]
+        holders, place, pid, taken = state.item_holder, self.place, p.pid, p.raw_taken
+        for tok in self.tokens:
+            holder = holders.get((pid, tok))
+            row.append(float(tok in taken))
+            row += (0.0, 0.0) if holder is None else place[holder]
+        return row
+
+    def encode(self, state: State) -> np.ndarray:
+        """The A-STATE-VECTOR of ``state`` (a copy, the caller's to keep)."""
+        model, out, t = self.model, self.out, state.t
+        keys, robot_key = self._robot_keys, self.robot_key
+        for k, cell in enumerate(model.cells):
+            r = state.robots[cell]
+            key = robot_key(r, t)
+            if key != keys[k]:
+                at = k * ROBOT_STATE_DIM
+                out[at:at + ROBOT_STATE_DIM] = self._robot_row(state, cell, r, t)
+                keys[k] = key
+        open_products = [p for p in state.products if not p.delivered][: model.wip_cap]
+        for slot in range(model.wip_cap):
+            row = self._product_row(state, open_products[slot], t) if slot < len(open_products) else None
+            if row != self._product_rows[slot]:
+                at = self.products_at + slot * self.product_dim
+                out[at:at + self.product_dim] = row if row is not None else 0.0
+                self._product_rows[slot] = row
+        at = self.global_at
+        out[at:at + GLOBAL_STATE_DIM] = [
+            _frac(t, model.horizon), _frac(state.wip, model.wip_cap), _saturate(state.released),
+            _saturate(state.delivered), _saturate(len(state.proposals)), _saturate(len(state.activities))]
+        shelves = [_frac(state.shelves[row].get(tok, 0), model.shelf_capacity)
+                   for row in range(model.rows) for tok in self.raws]
+        if shelves != self._shelves:
+            out[at + GLOBAL_STATE_DIM:] = shelves
+            self._shelves = shelves
+        return out.copy()
+
+
+def encode_state(state: State, model: Model) -> np.ndarray:
+    """A-STATE-VECTOR: the privileged global state (for centralized critics, never for actors)."""
+    return StateEncoder(model).encode(state)

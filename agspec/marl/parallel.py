@@ -16,11 +16,11 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from agspec.interp.observe import IDLE, N_ACTIONS
-from agspec.interp.tick import Simulator
+from agspec.interp.tick import Simulator, StepResult
 from agspec.ir.instance import make_instance
 from agspec.marl import curriculum
 from agspec.marl.batch import BatchEncoder
-from agspec.marl.encoding import OBS_DIM, PublicInfo, encode_state, state_dim
+from agspec.marl.encoding import OBS_DIM, PublicInfo, StateEncoder, state_dim
 from agspec.marl.render import render_text
 from agspec.marl.rewards import delivered_value
 
@@ -156,6 +156,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         self.sim = Simulator(instance, capacity=self.capacity)
         self.public = PublicInfo.of(self.sim.model)
         self._encoder = BatchEncoder(self.sim.model, self.public)
+        self._state_encoder = StateEncoder(self.sim.model)
         agents = self.sim.agents()
         if getattr(self, "possible_agents", None) not in (None, agents):
             # spaces are per agent and must stay the same objects (A-PZ-SPACES)
@@ -208,18 +209,23 @@ class AssemblyGridParallelEnv(ParallelEnv):
                 self.action_space(agent).seed(int(seed) + k)
         self.sim.reset(seed)
         self._encoder.reset()
+        self._state_encoder.reset()
         self.agents = list(self.possible_agents)
         self.last_events = list(self.sim.reset_events)
         self._cycles = 0
-        obs = self._observations()
+        self._encode()
+        obs = self._agent_views()
         return obs, {a: {"action_mask": obs[a]["action_mask"]} for a in self.agents}
 
-    def _observations(self) -> dict[str, dict[str, np.ndarray]]:
-        # A-OBS-VECTOR and O-MASK of every agent into two arrays (the same bytes as encode_observation of
-        # sim.observe()); each agent's entries are row views of them (A-PZ-ARRAYS)
+    def _encode(self) -> None:
+        # A-OBS-VECTOR and O-MASK of every agent into two new arrays (the same bytes as encode_observation
+        # of sim.observe()), A-PZ-ARRAYS
         decision = self.sim.decision
         self.observation_array, self.action_mask_array = self._encoder.encode(
             self.sim.state, decision.options, decision.masks)
+
+    def _agent_views(self) -> dict[str, dict[str, np.ndarray]]:
+        # each agent's entries are row views of the arrays (A-PZ-ARRAYS)
         return {robot: {"observation": vector, "action_mask": mask}
                 for robot, vector, mask in zip(self.possible_agents, self.observation_array, self.action_mask_array)}
 
@@ -251,28 +257,40 @@ class AssemblyGridParallelEnv(ParallelEnv):
                 joint[position[agent]] = int(np.asarray(value).item())
             except (TypeError, ValueError):
                 raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
+        result, truncated = self.step_joint(joint)
+        team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
+        agents = self.possible_agents
+        obs = self._agent_views()
+        rewards = dict.fromkeys(agents, team)
+        terms = dict.fromkeys(agents, bool(result.terminated))
+        truncs = dict.fromkeys(agents, bool(truncated))
+        applied = result.applied
+        infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": applied[a]} for a in agents}
+        return obs, rewards, terms, truncs, infos
+
+    def step_joint(self, joint: list[int]) -> tuple[StepResult, bool]:
+        """A-PZ-ARRAYS: one decision epoch of the joint action ``joint`` (one integer per robot, in
+        ``possible_agents`` order) without the per-agent dicts; the arrays hold the new epoch.  Returns the
+        interpreter's step result and whether the episode was truncated (by the horizon or ``max_cycles``).
+        :meth:`step` is this plus its dicts; batch consumers (A-GYM-ENV, training copies) call it directly."""
+        if not self.agents:
+            raise AdapterError("step() after the episode ended; call reset()")
         # the encoder read every robot's pending support at the last epoch: the state this step starts from
         self._supports_before = self._encoder.supports
         result = self.sim.step(joint)
         self.last_events = result.events
         self._cycles += 1
         self.total_steps += 1
-        team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         truncated = result.truncated or (self.max_cycles is not None and self._cycles >= self.max_cycles
                                          and not result.terminated)
-        agents = self.agents
-        obs = self._observations()
-        rewards = dict.fromkeys(agents, team)
-        terms = dict.fromkeys(agents, bool(result.terminated))
-        truncs = dict.fromkeys(agents, bool(truncated))
-        infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": result.applied[a]} for a in agents}
+        self._encode()
         if result.terminated or truncated:
             self.agents = []
-        return obs, rewards, terms, truncs, infos
+        return result, bool(truncated)
 
     def state(self) -> np.ndarray:
         """A-STATE-VECTOR: the privileged global state (centralized training only)."""
-        return encode_state(self.sim.state, self.sim.model)
+        return self._state_encoder.encode(self.sim.state)
 
     def render(self) -> str | None:
         if self.render_mode is None:

@@ -50,7 +50,7 @@ class TeamEnv(gym.Env):
         self.observation_space = spaces.Dict(space)
         self.action_space = spaces.MultiDiscrete([N_ACTIONS] * n)
 
-    def _observe(self, per_agent: Mapping[str, Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    def _observe(self) -> dict[str, np.ndarray]:
         # A-PZ-ARRAYS: the env's arrays hold every agent's rows in possible_agents order (self.agents)
         out = {"obs": self.par.observation_array, "mask": self.par.action_mask_array}
         if self.with_state:
@@ -62,25 +62,22 @@ class TeamEnv(gym.Env):
         super().reset(seed=seed)
         if options and "instance" in options:
             self.instance = dict(options["instance"])
-        obs, _ = self.par.reset(seed=self.instance["seeds"]["execution"], options={"instance": self.instance})
-        return self._observe(obs), {}
+        self.par.reset(seed=self.instance["seeds"]["execution"], options={"instance": self.instance})
+        return self._observe(), {}
 
     def step(self, action: np.ndarray):
-        joint = {a: int(action[k]) for k, a in enumerate(self.agents)}
-        obs, _env_rewards, terms, truncs, _infos = self.par.step(joint)
+        result, truncated = self.par.step_joint(np.asarray(action).tolist())
         # T-REWARD: the paper's reward from this step's events (A-REWARD-MILESTONE)
         terms_, credit, rewards = milestone_rewards(self.par.last_events, self.par.supporting_before,
                                                     self.par.supporting(), self.credit_mode)
         per_agent = np.array([rewards[a] for a in self.agents], dtype=np.float32)
         # T-RECORD: the milestone return term excludes the sparse unit of every delivery and takes
         # the agents' mean support credit, whatever the method's own credit
-        milestone = terms_.team_reward() - terms_.delivery + SUPPORT_CREDIT * float(np.mean(list(credit.values())))
+        milestone = terms_.team_reward() - terms_.delivery + SUPPORT_CREDIT * (sum(credit.values()) / len(credit))
         info = {"rewards": per_agent, "milestone": milestone, "admitted": terms_.coalition,
                 "delivered": terms_.delivery}
-        ended = bool(any(terms.values()) or any(truncs.values()))
-        observed = self._observe(obs)
         team = float(per_agent.mean())
-        return observed, team, bool(any(terms.values())), ended and not any(terms.values()), info
+        return self._observe(), team, result.terminated, truncated and not result.terminated, info
 
 
 def make_vector(instance: Mapping[str, Any], copies: int, support_credit: str, with_state: bool,
