@@ -3,9 +3,10 @@ one or more baseline builds measured in the same run.
 
 Usage:  python benchmarks/bench_throughput.py --baseline NAME=PY [--baseline NAME=PY ...]
                                               [--reps 5] [--steps 400] [--index 1000]
-                                              [--scenario S ...] [--controller C ...] [--json]
+                                              [--scenario S ...] [--controller C ...] [--only pz|train|run]
+                                              [--json]
 
-Two figures per scenario, each in fresh processes of every build, interleaved (the order rotates
+Three figures per scenario, each in fresh processes of every build, interleaved (the order rotates
 every repetition, so load from other processes hits every side alike), ``--reps`` times; the
 tables show the medians and each build's ratio to every baseline:
 
@@ -14,6 +15,10 @@ tables show the medians and each build's ratio to every baseline:
   ``action_mask`` (a NumPy generator seeded 0, drawn outside the timer, so a policy's cost is not
   counted).  CPU seconds of the process (``time.process_time``), plus the median and 99th
   percentile of one step.  Target: ``PZ_TARGET`` × the first baseline on ``PZ_CELLS``.
+* **Training copy** — the trainer's environment copy (``agspec.train.rollout.make_vector``, one copy in
+  this process, the state vector of MAPPO's critic and the milestone reward, T-COPIES, T-REWARD) under
+  the same random legal actions, restarted when its episode ends: what ``agspec train`` waits for per
+  env step besides the networks.  No target of its own (it rides on the PettingZoo loop's).
 * **Plain episodes** — ``run_episode(instance, controller, horizon=--steps)``, what ``agspec run``
   does (interpreter, its M-CAPACITY samples and the controller).  Target: at least the ticks/s of
   the baseline named ``RUN_FLOOR`` (the first release of the interpreter) on every cell.
@@ -64,6 +69,28 @@ def pz_loop(scenario: str, index: int, steps: int) -> dict:
     return {"scenario": scenario, "robots": len(env.possible_agents), "steps": n, "seconds": round(elapsed, 4),
             "value": round(n / elapsed, 1), "p50_ms": round(per_step[n // 2] * 1e3, 3),
             "p99_ms": round(per_step[min(n - 1, round(0.99 * (n - 1)))] * 1e3, 3)}
+
+
+def train_copy(scenario: str, index: int, steps: int) -> dict:
+    import numpy as np
+
+    from agspec.catalogue import load_instance
+    from agspec.train.rollout import make_vector, restart, start_block
+
+    instance = load_instance(scenario, index=index)
+    vec = make_vector(instance, 1, "agent", True, "sync")
+    rng = np.random.default_rng(0)
+    t0 = time.process_time()
+    obs = start_block(vec, instance)
+    elapsed = time.process_time() - t0
+    for _ in range(steps):
+        action = np.array([[rng.choice(np.flatnonzero(row)) for row in obs["mask"][0]]])
+        t0 = time.process_time()
+        nxt, _, term, trunc, _ = vec.step(action)
+        obs = restart(vec, nxt, np.logical_or(term, trunc))
+        elapsed += time.process_time() - t0
+    vec.close()
+    return {"scenario": scenario, "steps": steps, "seconds": round(elapsed, 4), "value": round(steps / elapsed, 1)}
 
 
 def plain_run(scenario: str, controller: str, index: int, ticks: int) -> dict:
@@ -130,16 +157,20 @@ def main() -> None:
     ap.add_argument("--index", type=int, default=1000)
     ap.add_argument("--scenario", action="append", default=None)
     ap.add_argument("--controller", action="append", default=None, help="plain episodes' controllers")
-    ap.add_argument("--only", choices=("pz", "run"), default=None, help="one of the two figures")
-    ap.add_argument("--worker", choices=("pz", "run"), default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--only", choices=("pz", "train", "run"), default=None, help="one of the three figures")
+    ap.add_argument("--worker", choices=("pz", "train", "run"), default=None, help=argparse.SUPPRESS)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     scenarios = args.scenario or list(PZ_CELLS)
     controllers = args.controller or ["greedy", "random"]
     if args.worker:  # one measurement in this Python: the driver's subprocess
         c = controllers[0]
-        result = pz_loop(scenarios[0], args.index, args.steps) if args.worker == "pz" else \
-            plain_run(scenarios[0], c, args.index, args.steps)
+        if args.worker == "pz":
+            result = pz_loop(scenarios[0], args.index, args.steps)
+        elif args.worker == "train":
+            result = train_copy(scenarios[0], args.index, args.steps)
+        else:
+            result = plain_run(scenarios[0], c, args.index, args.steps)
         print(json.dumps({**result, "peak_rss_mib": round(self_peak_mib(), 1)}))
         return
     sides = {"new": sys.executable}
@@ -154,6 +185,9 @@ def main() -> None:
     if args.only in (None, "pz"):
         out["pz"] = _rows("pz", [(["--scenario", s, *common], {"scenario": s}) for s in scenarios],
                           args.reps, sides)
+    if args.only in (None, "train"):
+        out["train"] = _rows("train", [(["--scenario", s, *common], {"scenario": s}) for s in scenarios],
+                             args.reps, sides)
     if args.only in (None, "run"):
         out["run"] = _rows("run", [(["--scenario", s, "--controller", c, *common], {"scenario": s, "controller": c})
                                    for s in scenarios for c in controllers], args.reps, sides)
@@ -162,6 +196,7 @@ def main() -> None:
         return
     for kind, title in (("pz", f"PettingZoo loop, env steps/s (masked random actions; target >= {PZ_TARGET} x "
                                 f"the first baseline on {', '.join(PZ_CELLS)})"),
+                        ("train", "training copy (make_vector, MAPPO's state vector and milestone reward), env steps/s"),
                         ("run", f"plain episodes (run_episode), ticks/s (target >= 1.0 x {RUN_FLOOR})")):
         if kind in out:
             keys = [k for k in out[kind][0] if k != "samples"]
