@@ -87,8 +87,10 @@ def logically_ready_occurrences(state: State, model: Model) -> list[tuple[Produc
     for product in state.products:
         if product.delivered:
             continue
+        done, running = product.completed, product.in_progress
         for op in model.recipes[product.recipe].operations:
-            if logically_ready(product, op, model):
+            # completed and executing operations are most of a product's: they are passed over here
+            if op.id not in done and op.id not in running and logically_ready(product, op, model):
                 out.append((product, op))
     return out
 
@@ -125,9 +127,14 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
     rejected = 0
     t = state.t
     robots = state.robots
-    for product, op in ready_occurrences(state, model):
-        holder_of = {tok: state.item_holder[(product.pid, tok)] for tok in op.inputs}
-        holders = tuple(sorted(set(holder_of.values())))
+    item_holder = state.item_holder
+    for product, op in logically_ready_occurrences(state, model):
+        # R-READY (material): :func:`ready_occurrences`' input test, with the holders looked up once
+        holding = [item_holder.get((product.pid, tok)) for tok in op.inputs]
+        if None in holding:
+            continue
+        holder_of = dict(zip(op.inputs, holding))
+        holders = tuple(sorted(set(holding)))
         cap = min(op.kmax, model.k_topo)
         if len(holders) > cap or any(not robots[h].free(t) for h in holders):
             continue
@@ -157,6 +164,19 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
                     out.append(cand)
     out.sort(key=lambda c: (c.pid, c.op.id, c.members))
     return out, rejected
+
+
+def surviving_candidates(state: State, candidates: list[Candidate]) -> list[Candidate]:
+    """R-CANDIDATES after a transition that only committed robots to new activities: it completed,
+    released and admitted nothing, so logical readiness, the holders of items, who holds anything
+    and every pose are as before, and robots only stopped being free (a robot becomes free only when
+    its activity completes, R-EXECUTION).  A realization then exists now iff it existed before and
+    all its members are still free: a busy holder drops its occurrence, a busy helper leaves the
+    pool, and nothing else that :func:`build_candidates` reads has changed.  The previous candidates
+    must be all of the previous realizations (none was rejected as motion-infeasible: those are
+    counted, not kept); the kept ones stay in their sorted order."""
+    t, robots = state.t, state.robots
+    return [c for c in candidates if all(robots[m].free(t) for m in c.members)]
 
 
 REALIZED_LIMIT = 20_000  # the memo starts over past this many entries (bounded memory)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from operator import sub
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.ir import variants
@@ -180,7 +180,7 @@ def cartesian_ticks(ee: Point, target: Point, speed: float) -> int:
 
 def joint_ticks(q_current: Sequence[float], q_target: Sequence[float], joint_speed: float) -> int:
     """G-MOTION step 3: ceil(max_k |q_target[k] - q_current[k]| / joint_speed)."""
-    return math.ceil(max(abs(a - b) for a, b in zip(q_target, q_current)) / joint_speed)
+    return math.ceil(max(map(abs, map(sub, q_target, q_current))) / joint_speed)
 
 
 @dataclass(frozen=True)
@@ -212,13 +212,20 @@ class Plan:
         """Approach + retreat ticks (the metric geometry_delay_ticks sums these)."""
         return self.approach + self.retreat
 
-    @cached_property
+    @property
     def segment_bounds(self) -> tuple[float, float, float, float]:
         """(min x, min y, max x, max y) over all member segments: a cheap lower bound on segment
-        distances that lets :func:`plans_conflict` skip far-apart plans (it never decides a near case)."""
-        xs = [p[0] for seg in self.segments for p in seg]
-        ys = [p[1] for seg in self.segments for p in seg]
-        return (min(xs), min(ys), max(xs), max(ys))
+        distances that lets :func:`plans_conflict` skip far-apart plans (it never decides a near case).
+
+        Computed once per plan and kept in the instance dict, like RobotPose's hash (a cached_property
+        takes a lock on every first computation, and most plans are tested only a few times)."""
+        bounds = self.__dict__.get("_segment_bounds")
+        if bounds is None:
+            xs = [p[0] for seg in self.segments for p in seg]
+            ys = [p[1] for seg in self.segments for p in seg]
+            bounds = (min(xs), min(ys), max(xs), max(ys))
+            object.__setattr__(self, "_segment_bounds", bounds)
+        return bounds
 
     def final_poses(self) -> dict[Cell, RobotPose]:
         """G-END-EFFECTOR: each member's pose after completion (no return to base)."""

@@ -14,6 +14,7 @@ from typing import Any, Mapping, Sequence
 
 from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
+from agspec.interp.candidates import surviving_candidates
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model
 from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
@@ -83,12 +84,16 @@ class Simulator:
         rules.release_product(self.state, self.model, self.reset_events, forced=True)  # R-RELEASE at t = 0
         self._enter_epoch()
 
-    def _enter_epoch(self, candidates_unchanged: bool = False) -> None:
+    def _enter_epoch(self, candidates_unchanged: bool = False, only_commitments: bool = False) -> None:
         """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state.
 
         ``candidates_unchanged``: the transition into this epoch started, completed and released
         nothing, so every input of R-CANDIDATES (logical readiness, the holders of items, which robots
         are free and hold nothing, their poses) is the previous epoch's, and so are its candidates.
+        ``only_commitments``: it started picks, handoffs or deliveries but completed, released and
+        admitted nothing, so the candidates are the previous ones whose members are all still free
+        (:func:`~agspec.interp.candidates.surviving_candidates`), when the previous epoch rejected no
+        realization as motion-infeasible (those would have to be counted again).
         Option lists and masks equal to the previous epoch's are handed out as the previous objects,
         so that consumers which test identity (the all-agents encoder) skip them.
         """
@@ -97,7 +102,10 @@ class Simulator:
         if candidates_unchanged:
             candidates, by_id, rejected = last.candidates, last.by_id, last.rejected
         else:
-            candidates, rejected = build_candidates(state, model)
+            if only_commitments and last.rejected == 0:
+                candidates, rejected = surviving_candidates(state, last.candidates), 0
+            else:
+                candidates, rejected = build_candidates(state, model)
             by_id = {c.cid: c for c in candidates}
         options = build_options(state, model, candidates, last.options if last is not None else None)
         masks = action_masks(state, model, options, last.masks if last is not None else None)
@@ -158,7 +166,8 @@ class Simulator:
                 raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
-        seq, released = state.next_seq, state.released  # what R-CANDIDATES reads changes only with these
+        # what R-CANDIDATES reads changes only with these (and completions)
+        seq, released, teams = state.next_seq, state.released, state.next_team
 
         # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
         if self.capacity:  # A-PZ-CAPACITY: only where the measures are asked for
@@ -226,7 +235,8 @@ class Simulator:
         # step 15: R-TERMINATION
         result.terminated, result.truncated = self.terminated, self.truncated
         # step 1 of the next epoch; a robot becomes free only when its activity completes (R-EXECUTION)
-        self._enter_epoch(candidates_unchanged=not completed and state.next_seq == seq and state.released == released)
+        quiet = not completed and state.released == released and state.next_team == teams  # R-ADMISSION: next_team
+        self._enter_epoch(candidates_unchanged=quiet and state.next_seq == seq, only_commitments=quiet)
         return result
 
     def _sample_capacity(self) -> None:
