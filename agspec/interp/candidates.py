@@ -140,7 +140,9 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
             continue
         if not all(model.adjacent(a, b) for a, b in combinations(holders, 2)):
             continue
-        # helpers are adjacent to every holder, so they are among the first holder's neighbours
+        # helpers are adjacent to every holder, so they are among the first holder's neighbours; an
+        # occurrence whose holders already fill its arity takes no helper (combinations(pool, 0) is
+        # the one empty choice whatever the pool), so its pool is not looked for
         around = model.neighbours[holders[0]] if holders else model.cells
         pool = [
             c
@@ -149,7 +151,7 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
             and robots[c].free(t)
             and robots[c].holding is None
             and all(model.adjacent(c, h) for h in holders)
-        ]
+        ] if len(holders) < cap else []
         for extra in range(max(0, op.kmin - len(holders)), cap - len(holders) + 1):
             for helpers in combinations(pool, extra):
                 members = tuple(sorted(holders + helpers))
