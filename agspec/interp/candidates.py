@@ -117,18 +117,20 @@ def assign_roles(op: OperationSpec, members: tuple[Cell, ...], holder_of: dict[s
     return tuple((m, assigned[m]) for m in members)
 
 
-def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
+def build_candidates(state: State, model: Model, ready: list[tuple[Product, OperationSpec]] | None = None,
+                     ) -> tuple[list[Candidate], int]:
     """R-CANDIDATES: every admissible realization of every ready occurrence, at most once per key.
 
     Returns the candidates sorted by (product id, operation id, members) and the number of
-    realizations rejected as motion-infeasible (M-GEOMETRY-REJECTIONS).
+    realizations rejected as motion-infeasible (M-GEOMETRY-REJECTIONS).  ``ready`` is
+    :func:`logically_ready_occurrences` of this state when the caller already has it.
     """
     out: list[Candidate] = []
     rejected = 0
     t = state.t
     robots = state.robots
     item_holder = state.item_holder
-    for product, op in logically_ready_occurrences(state, model):
+    for product, op in logically_ready_occurrences(state, model) if ready is None else ready:
         # R-READY (material): :func:`ready_occurrences`' input test, with the holders looked up once
         holding = [item_holder.get((product.pid, tok)) for tok in op.inputs]
         if None in holding:

@@ -238,8 +238,8 @@ def nonadjacent_coalition(session: Session) -> None:
                 return a != b  # BUG: the helper-helper test of R-CANDIDATES step 3 is skipped
             return self._model.adjacent(a, b)
 
-    def build_candidates(state, model):
-        return orig(state, Loose(model, state))
+    def build_candidates(state, model, *ready):
+        return orig(state, Loose(model, state), *ready)
 
     tick.build_candidates = build_candidates
 
