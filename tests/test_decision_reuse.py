@@ -83,8 +83,30 @@ def test_a_snapshot_that_keeps_stale_candidates_is_caught(monkeypatch):
     """The seeded mutant: candidates kept across a transition that completed something."""
     enter = Simulator._enter_epoch
 
-    def stale(self, candidates_unchanged=False):
+    def stale(self, candidates_unchanged=False, **_):
         enter(self, candidates_unchanged=self.state.t > 1)  # BUG: ignores what the transition changed
+
+    monkeypatch.setattr(Simulator, "_enter_epoch", stale)
+    sim = Simulator(load_instance("coalition-medium", index=1000), capacity=False)
+    assert any("candidates" in p for p in _random_episode(sim, 0, 200))
+
+
+def test_surviving_candidates_that_keep_committed_members_are_caught(monkeypatch):
+    """The seeded mutant of the only-commitments path: the previous candidates are kept whole, also
+    those with a member that the transition committed to a pick, handoff or delivery."""
+    from agspec.interp import tick
+
+    monkeypatch.setattr(tick, "surviving_candidates", lambda state, candidates: list(candidates))  # BUG: no filter
+    sim = Simulator(load_instance("concurrency-hard", index=1000), capacity=False)
+    assert any("candidates" in p for p in _random_episode(sim, 0, 200))
+
+
+def test_a_snapshot_that_keeps_stale_readiness_is_caught(monkeypatch):
+    """The seeded mutant of the kept R-READY list: kept also after admissions and completed operations."""
+    enter = Simulator._enter_epoch
+
+    def stale(self, candidates_unchanged=False, only_commitments=False, ready_unchanged=False):
+        enter(self, candidates_unchanged, only_commitments, ready_unchanged=self.state.t > 1)  # BUG
 
     monkeypatch.setattr(Simulator, "_enter_epoch", stale)
     sim = Simulator(load_instance("coalition-medium", index=1000), capacity=False)

@@ -87,8 +87,10 @@ def logically_ready_occurrences(state: State, model: Model) -> list[tuple[Produc
     for product in state.products:
         if product.delivered:
             continue
+        done, running = product.completed, product.in_progress
         for op in model.recipes[product.recipe].operations:
-            if logically_ready(product, op, model):
+            # completed and executing operations are most of a product's: they are passed over here
+            if op.id not in done and op.id not in running and logically_ready(product, op, model):
                 out.append((product, op))
     return out
 
@@ -115,25 +117,34 @@ def assign_roles(op: OperationSpec, members: tuple[Cell, ...], holder_of: dict[s
     return tuple((m, assigned[m]) for m in members)
 
 
-def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
+def build_candidates(state: State, model: Model, ready: list[tuple[Product, OperationSpec]] | None = None,
+                     ) -> tuple[list[Candidate], int]:
     """R-CANDIDATES: every admissible realization of every ready occurrence, at most once per key.
 
     Returns the candidates sorted by (product id, operation id, members) and the number of
-    realizations rejected as motion-infeasible (M-GEOMETRY-REJECTIONS).
+    realizations rejected as motion-infeasible (M-GEOMETRY-REJECTIONS).  ``ready`` is
+    :func:`logically_ready_occurrences` of this state when the caller already has it.
     """
     out: list[Candidate] = []
     rejected = 0
     t = state.t
     robots = state.robots
-    for product, op in ready_occurrences(state, model):
-        holder_of = {tok: state.item_holder[(product.pid, tok)] for tok in op.inputs}
-        holders = tuple(sorted(set(holder_of.values())))
+    item_holder = state.item_holder
+    for product, op in logically_ready_occurrences(state, model) if ready is None else ready:
+        # R-READY (material): :func:`ready_occurrences`' input test, with the holders looked up once
+        holding = [item_holder.get((product.pid, tok)) for tok in op.inputs]
+        if None in holding:
+            continue
+        holder_of = dict(zip(op.inputs, holding))
+        holders = tuple(sorted(set(holding)))
         cap = min(op.kmax, model.k_topo)
         if len(holders) > cap or any(not robots[h].free(t) for h in holders):
             continue
         if not all(model.adjacent(a, b) for a, b in combinations(holders, 2)):
             continue
-        # helpers are adjacent to every holder, so they are among the first holder's neighbours
+        # helpers are adjacent to every holder, so they are among the first holder's neighbours; an
+        # occurrence whose holders already fill its arity takes no helper (combinations(pool, 0) is
+        # the one empty choice whatever the pool), so its pool is not looked for
         around = model.neighbours[holders[0]] if holders else model.cells
         pool = [
             c
@@ -142,7 +153,7 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
             and robots[c].free(t)
             and robots[c].holding is None
             and all(model.adjacent(c, h) for h in holders)
-        ]
+        ] if len(holders) < cap else []
         for extra in range(max(0, op.kmin - len(holders)), cap - len(holders) + 1):
             for helpers in combinations(pool, extra):
                 members = tuple(sorted(holders + helpers))
@@ -157,6 +168,19 @@ def build_candidates(state: State, model: Model) -> tuple[list[Candidate], int]:
                     out.append(cand)
     out.sort(key=lambda c: (c.pid, c.op.id, c.members))
     return out, rejected
+
+
+def surviving_candidates(state: State, candidates: list[Candidate]) -> list[Candidate]:
+    """R-CANDIDATES after a transition that only committed robots to new activities: it completed,
+    released and admitted nothing, so logical readiness, the holders of items, who holds anything
+    and every pose are as before, and robots only stopped being free (a robot becomes free only when
+    its activity completes, R-EXECUTION).  A realization then exists now iff it existed before and
+    all its members are still free: a busy holder drops its occurrence, a busy helper leaves the
+    pool, and nothing else that :func:`build_candidates` reads has changed.  The previous candidates
+    must be all of the previous realizations (none was rejected as motion-infeasible: those are
+    counted, not kept); the kept ones stay in their sorted order."""
+    t, robots = state.t, state.robots
+    return [c for c in candidates if all(robots[m].free(t) for m in c.members)]
 
 
 REALIZED_LIMIT = 20_000  # the memo starts over past this many entries (bounded memory)

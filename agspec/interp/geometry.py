@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from operator import sub
 from typing import Any, Iterable, Mapping, Sequence
 
 from agspec.ir import variants
@@ -173,6 +173,14 @@ def joint_target(cell: Cell, target: Point, reach: float, spacing: float) -> Joi
     return (theta, _clip((rho / reach) * (math.pi / 2)), -0.35 * theta, 0.25 * theta, 0.0, 0.0)
 
 
+def target_pose(cell: Cell, target: Point, reach: float, spacing: float) -> tuple[float, RobotPose]:
+    """G-REACH and G-MOTION step 3 for one member: the distance rho from its base to ``target`` and
+    the pose it ends in (G-END-EFFECTOR: the effector on the target, the joint proxy of
+    :func:`joint_target`).  A pure function of the cell and the target, whatever the current pose."""
+    target = (float(target[0]), float(target[1]))
+    return distance(target, base(cell, spacing)), RobotPose(ee=target, q=joint_target(cell, target, reach, spacing))
+
+
 def cartesian_ticks(ee: Point, target: Point, speed: float) -> int:
     """G-MOTION step 2: ceil(||target - ee|| / speed)."""
     return math.ceil(distance(target, ee) / speed)
@@ -180,7 +188,7 @@ def cartesian_ticks(ee: Point, target: Point, speed: float) -> int:
 
 def joint_ticks(q_current: Sequence[float], q_target: Sequence[float], joint_speed: float) -> int:
     """G-MOTION step 3: ceil(max_k |q_target[k] - q_current[k]| / joint_speed)."""
-    return math.ceil(max(abs(a - b) for a, b in zip(q_target, q_current)) / joint_speed)
+    return math.ceil(max(map(abs, map(sub, q_target, q_current))) / joint_speed)
 
 
 @dataclass(frozen=True)
@@ -212,13 +220,20 @@ class Plan:
         """Approach + retreat ticks (the metric geometry_delay_ticks sums these)."""
         return self.approach + self.retreat
 
-    @cached_property
+    @property
     def segment_bounds(self) -> tuple[float, float, float, float]:
         """(min x, min y, max x, max y) over all member segments: a cheap lower bound on segment
-        distances that lets :func:`plans_conflict` skip far-apart plans (it never decides a near case)."""
-        xs = [p[0] for seg in self.segments for p in seg]
-        ys = [p[1] for seg in self.segments for p in seg]
-        return (min(xs), min(ys), max(xs), max(ys))
+        distances that lets :func:`plans_conflict` skip far-apart plans (it never decides a near case).
+
+        Computed once per plan and kept in the instance dict, like RobotPose's hash (a cached_property
+        takes a lock on every first computation, and most plans are tested only a few times)."""
+        bounds = self.__dict__.get("_segment_bounds")
+        if bounds is None:
+            xs = [p[0] for seg in self.segments for p in seg]
+            ys = [p[1] for seg in self.segments for p in seg]
+            bounds = (min(xs), min(ys), max(xs), max(ys))
+            object.__setattr__(self, "_segment_bounds", bounds)
+        return bounds
 
     def final_poses(self) -> dict[Cell, RobotPose]:
         """G-END-EFFECTOR: each member's pose after completion (no return to base)."""
@@ -231,6 +246,7 @@ def plan_activity(
     profile: Mapping[str, Any],
     *,
     common_target: Point | None = None,
+    targets: dict[tuple[Cell, Point], tuple[float, RobotPose]] | None = None,
 ) -> Plan | None:
     """G-MOTION, G-DURATION: plan an activity; ``None`` means MotionInfeasible.
 
@@ -247,6 +263,9 @@ def plan_activity(
     3. A = max travel, R = ceil(retreat_fraction * A), D = max(1, A + P + R).
        With ``motion_planning`` false: A = R = 0 and D = max(1, P) (segments, poses and margins
        are still computed).
+
+    ``targets`` (optional): a memo of :func:`target_pose` by (cell, target) that the caller keeps
+    (:class:`PlanMemo`); the member's current pose is not part of it.
     """
     if not members:
         raise ValueError("an activity needs at least one member")
@@ -262,15 +281,20 @@ def plan_activity(
     margins: list[float] = []
     path_length = 0.0
     for cell, pose, target in members:
-        target = (float(target[0]), float(target[1]))
-        rho = distance(target, base(cell, spacing))
+        if targets is None:
+            rho, end = target_pose(cell, target, reach, spacing)
+        else:
+            part = targets.get((cell, target))
+            if part is None:
+                part = targets[(cell, target)] = target_pose(cell, target, reach, spacing)
+            rho, end = part
         if rho > reach + REACH_TOLERANCE:  # G-REACH
             return None
-        q_target = joint_target(cell, target, reach, spacing)
-        ticks = max(cartesian_ticks(pose.ee, target, speed), joint_ticks(pose.q, q_target, joint_speed))
+        target = end.ee
+        ticks = max(cartesian_ticks(pose.ee, target, speed), joint_ticks(pose.q, end.q, joint_speed))
         cells.append(cell)
         segments.append((pose.ee, target))
-        poses.append(RobotPose(ee=target, q=q_target))
+        poses.append(end)
         travel.append(ticks)
         margins.append(reach - rho)
         path_length += distance(target, pose.ee)
@@ -307,12 +331,16 @@ class PlanMemo:
     A plan is a pure function of those inputs (G-MOTION), and an instance's candidates are planned
     again every epoch while most poses have not changed (as are picks, handoffs and deliveries that
     were blocked and are tried again), so the interpreter looks them up here.
-    MotionInfeasible (None) is remembered too.  Bounded: the memo starts over past ``limit`` entries.
+    MotionInfeasible (None) is remembered too.  A plan that is not remembered (a member moved) is
+    planned with the members' target poses remembered here (:func:`target_pose`: the few targets of an
+    instance recur far more often than pose combinations).  Bounded: each memo starts over past
+    ``limit`` entries.
     """
 
     def __init__(self, profile: Mapping[str, Any], limit: int = 20_000):
         self.profile, self.limit = profile, limit
         self._plans: dict[tuple, Plan | None] = {}
+        self._targets: dict[tuple[Cell, Point], tuple[float, RobotPose]] = {}
 
     def plan(self, members: Sequence[tuple[Cell, RobotPose, Point]], process: int, common_target: Point) -> Plan | None:
         key = (tuple(members), process, common_target)
@@ -320,7 +348,9 @@ class PlanMemo:
             return self._plans[key]
         if len(self._plans) >= self.limit:
             self._plans.clear()
-        plan = plan_activity(members, process, self.profile, common_target=common_target)
+        if len(self._targets) >= self.limit:
+            self._targets.clear()
+        plan = plan_activity(members, process, self.profile, common_target=common_target, targets=self._targets)
         self._plans[key] = plan
         return plan
 

@@ -55,6 +55,12 @@ class RecipeSpec:
         raise KeyError(op_id)
 
     @cached_property
+    def input_tokens(self) -> frozenset[str]:
+        """Every token some operation consumes: the tokens a product still needs while none of its
+        XOR groups has chosen (O-PICK-OPTIONS; no alternative is closed yet, RC-XOR)."""
+        return frozenset(tok for op in self.operations for tok in op.inputs)
+
+    @cached_property
     def downstream(self) -> dict[str, int]:
         """Longest duration chain strictly after each operation (for productive weights)."""
         succ: dict[str, list[str]] = {op.id: [] for op in self.operations}
@@ -185,6 +191,11 @@ class Model:
     @cached_property
     def cells(self) -> tuple[Cell, ...]:
         return tuple((i, j) for i in range(self.rows) for j in range(self.cols))
+
+    @cached_property
+    def input_column(self) -> tuple[Cell, ...]:
+        """The cells of column 0, row-major: the robots that may pick (O-PICK-OPTIONS, R-PICK)."""
+        return tuple(c for c in self.cells if c[1] == 0)
 
     @cached_property
     def manipulation_graph(self) -> nx.Graph:

@@ -59,7 +59,10 @@ def pickable_tokens(state: State, model: Model) -> list[tuple[Product, str, int,
         if product.delivered:
             continue
         recipe = model.recipes[product.recipe]
-        needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
+        if not product.xor_choice:  # no alternative is closed (RC-XOR): every input is needed
+            needed = recipe.input_tokens
+        else:
+            needed = {tok for op in recipe.operations if not xor_closed(product, op) for tok in op.inputs}
         for token in recipe.raw:
             if token in product.raw_taken or token not in needed:
                 continue
@@ -116,7 +119,7 @@ def build_options(state: State, model: Model, candidates: list[Candidate],
     out = dict.fromkeys(model.cells, NO_OPTIONS)
     pickable = pickable_tokens(state, model)
     # only input-column robots can pick (O-PICK-OPTIONS); pick_options says so too
-    pickers = [c for c in model.cells if c[1] == 0] if pickable else []
+    pickers = model.input_column if pickable else ()
     for cell in sorted({*per_robot, *pickers}):
         ops = sorted(per_robot[cell], key=lambda x: (-x[0], x[1])) if cell in per_robot else []
         picks = pick_options(state, model, cell, pickable) if pickable else []

@@ -30,7 +30,8 @@ def geometric_conflict(model: Model, plan_a, target_a, members_a, plan_b, target
 
 
 def shares_exclusive(model: Model, res_a: Iterable[str], res_b: Iterable[str]) -> bool:
-    return any(model.resource_cap(r) <= 1 for r in frozenset(res_a).intersection(res_b))
+    common = frozenset(res_a).intersection(res_b)  # usually empty: no generator for it
+    return bool(common) and any(model.resource_cap(r) <= 1 for r in common)
 
 
 def exhausted(state: State, model: Model, resources: Iterable[str]) -> bool:
@@ -433,7 +434,8 @@ def complete_activities(state: State, model: Model, events: Events) -> int:
             if state.robots[m].activity == act.aid:
                 state.robots[m].activity = None
     for robot in state.robots.values():
-        if robot.free(t):
+        # clearing labels that are already None changes nothing: only labelled robots are tested
+        if (robot.op_label is not None or robot.role_label is not None) and robot.free(t):
             robot.op_label = robot.role_label = None
     return progress
 

@@ -14,11 +14,12 @@ from typing import Any, Mapping, Sequence
 
 from agspec.interp import geometry, rules
 from agspec.interp.candidates import Candidate, build_candidates, inputs_present, logically_ready_occurrences
+from agspec.interp.candidates import surviving_candidates
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
-from agspec.interp.model import Model
+from agspec.interp.model import Model, OperationSpec
 from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
 from agspec.interp.observe import epoch_views, observation
-from agspec.interp.state import Cell, Robot, State, cell_id
+from agspec.interp.state import Cell, Product, Robot, State, cell_id
 
 
 @dataclass
@@ -31,6 +32,7 @@ class Decision:
     masks: dict[Cell, Mask]
     rejected: int
     compatibility: Compatibility | None = None  # M-CAPACITY's weight-free part, once it is needed
+    ready: list[tuple[Product, OperationSpec]] | None = None  # R-READY's logically ready occurrences, once needed
 
 
 @dataclass
@@ -83,25 +85,38 @@ class Simulator:
         rules.release_product(self.state, self.model, self.reset_events, forced=True)  # R-RELEASE at t = 0
         self._enter_epoch()
 
-    def _enter_epoch(self, candidates_unchanged: bool = False) -> None:
+    def _enter_epoch(self, candidates_unchanged: bool = False, only_commitments: bool = False,
+                     ready_unchanged: bool = False) -> None:
         """R-TICK-ORDER step 1 of the epoch being entered: the decision snapshot of its state.
 
         ``candidates_unchanged``: the transition into this epoch started, completed and released
         nothing, so every input of R-CANDIDATES (logical readiness, the holders of items, which robots
         are free and hold nothing, their poses) is the previous epoch's, and so are its candidates.
+        ``only_commitments``: it started picks, handoffs or deliveries but completed, released and
+        admitted nothing, so the candidates are the previous ones whose members are all still free
+        (:func:`~agspec.interp.candidates.surviving_candidates`), when the previous epoch rejected no
+        realization as motion-infeasible (those would have to be counted again).
+        ``ready_unchanged``: it admitted, released and completed no operation or delivery (picks and
+        handoffs move material only), so R-READY's logically ready occurrences are the previous ones.
         Option lists and masks equal to the previous epoch's are handed out as the previous objects,
         so that consumers which test identity (the all-agents encoder) skip them.
         """
         state, model = self.state, self.model
         last = getattr(self, "decision", None)
+        ready = last.ready if ready_unchanged and last is not None else None
         if candidates_unchanged:
             candidates, by_id, rejected = last.candidates, last.by_id, last.rejected
         else:
-            candidates, rejected = build_candidates(state, model)
+            if only_commitments and last.rejected == 0:
+                candidates, rejected = surviving_candidates(state, last.candidates), 0
+            else:
+                if ready is None:
+                    ready = logically_ready_occurrences(state, model)
+                candidates, rejected = build_candidates(state, model, ready)
             by_id = {c.cid: c for c in candidates}
         options = build_options(state, model, candidates, last.options if last is not None else None)
         masks = action_masks(state, model, options, last.masks if last is not None else None)
-        self.decision = Decision(candidates, by_id, options, masks, rejected)
+        self.decision = Decision(candidates, by_id, options, masks, rejected, ready=ready)
         rules.bump(state, "reject_motion_infeasible", rejected)
 
     def compatibility(self) -> Compatibility:
@@ -158,7 +173,8 @@ class Simulator:
                 raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
-        seq, released = state.next_seq, state.released  # what R-CANDIDATES reads changes only with these
+        # what R-CANDIDATES reads changes only with these (and completions)
+        seq, released, teams = state.next_seq, state.released, state.next_team
 
         # step 1: R-READY, R-CANDIDATES, R-ROLE-ASSIGNMENT, M-CAPACITY, M-RF-BR (snapshot: _enter_epoch)
         if self.capacity:  # A-PZ-CAPACITY: only where the measures are asked for
@@ -211,6 +227,7 @@ class Simulator:
         # step 8: R-CLOCK
         state.t += 1
         # step 9: R-COMPLETION
+        material_only = all(a.kind in ("pick", "handoff") for a in state.activities if a.end <= state.t)
         completed = rules.complete_activities(state, model, events)
         progress += completed
         # step 10: R-REPLENISH
@@ -226,14 +243,19 @@ class Simulator:
         # step 15: R-TERMINATION
         result.terminated, result.truncated = self.terminated, self.truncated
         # step 1 of the next epoch; a robot becomes free only when its activity completes (R-EXECUTION)
-        self._enter_epoch(candidates_unchanged=not completed and state.next_seq == seq and state.released == released)
+        kept = state.released == released and state.next_team == teams  # R-RELEASE; R-ADMISSION: next_team
+        quiet = kept and not completed
+        self._enter_epoch(candidates_unchanged=quiet and state.next_seq == seq, only_commitments=quiet,
+                          ready_unchanged=kept and material_only)
         return result
 
     def _sample_capacity(self) -> None:
         """R-TICK-ORDER step 1's M-CAPACITY and M-RF-BR samples of the decision epoch."""
         state, model, d = self.state, self.model, self.decision
         capacity = capacity_snapshot(state, model, d.candidates, self.compatibility())
-        ready = logically_ready_occurrences(state, model)  # M-RF-BR: R_t (paper: logical readiness)
+        if d.ready is None:
+            d.ready = logically_ready_occurrences(state, model)
+        ready = d.ready  # M-RF-BR: R_t (paper: logical readiness)
         with_material = [(p, op) for p, op in ready if inputs_present(state, p, op)]  # DIV-BR-READY-SET
         feasible = {c.group for c in capacity.compatible}  # F_t: >= 1 candidate compatible with commitments
         n_feasible = sum(1 for p, op in ready if (p.pid, op.id) in feasible)

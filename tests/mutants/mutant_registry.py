@@ -238,8 +238,8 @@ def nonadjacent_coalition(session: Session) -> None:
                 return a != b  # BUG: the helper-helper test of R-CANDIDATES step 3 is skipped
             return self._model.adjacent(a, b)
 
-    def build_candidates(state, model):
-        return orig(state, Loose(model, state))
+    def build_candidates(state, model, *ready):
+        return orig(state, Loose(model, state), *ready)
 
     tick.build_candidates = build_candidates
 
@@ -374,8 +374,8 @@ def duration_round(session: Session) -> None:
 
     orig = geometry.plan_activity
 
-    def plan_activity(members, process, profile, *, common_target=None):
-        plan = orig(members, process, profile, common_target=common_target)
+    def plan_activity(members, process, profile, *, common_target=None, **memo):
+        plan = orig(members, process, profile, common_target=common_target, **memo)
         if plan is None or not profile.get("motion_planning", True):
             return plan
         retreat = round(float(profile["retreat_fraction"]) * plan.approach)  # BUG: round, not ceil
