@@ -324,6 +324,30 @@ def test_bad_input_gives_clear_errors():
         env.step({})
 
 
+def test_step_joint_is_step_without_the_dicts():
+    """A-PZ-ARRAYS: the batch consumers' step gives the epoch, events and arrays that step gives."""
+    by_dict, by_list = parallel_env("coalition-medium", index=1000), parallel_env("coalition-medium", index=1000)
+    by_dict.reset(seed=0)
+    by_list.reset(seed=0)
+    rng = np.random.default_rng(3)
+    for tick in range(120):
+        joint = [int(rng.choice(np.flatnonzero(row))) for row in by_dict.action_mask_array]
+        by_dict.step(dict(zip(by_dict.possible_agents, joint)))
+        by_list.step_joint([np.int64(a) for a in joint] if tick % 2 else joint)  # NumPy integers are actions too
+        assert by_list.last_events == by_dict.last_events
+        assert by_list.observation_array.tobytes() == by_dict.observation_array.tobytes()
+        assert by_list.action_mask_array.tobytes() == by_dict.action_mask_array.tobytes()
+
+
+def test_step_joint_refuses_a_joint_action_of_the_wrong_shape_or_kind():
+    env = parallel_env("flow-easy", index=0)
+    env.reset(seed=0)
+    with pytest.raises(AdapterError, match="one action per robot"):
+        env.step_joint([0, 0])
+    with pytest.raises(AdapterError, match="must be an integer"):
+        env.step_joint(["pick"] * len(env.possible_agents))
+
+
 def test_instance_file_and_index_conflict(tmp_path):
     import json
 

@@ -9,7 +9,7 @@ illegal action is executed as idle and counted, as the interpreter does (R-ACTIO
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -27,6 +27,15 @@ from agspec.marl.rewards import delivered_value
 
 class AdapterError(ValueError):
     """A bad scenario, instance or option given to an adapter (message names what and where)."""
+
+
+def _action(agent: str, value: Any) -> int:
+    """An agent's action as an int (NumPy scalars and 0-d arrays too); AdapterError names the agent.
+    Out-of-range integers are the interpreter's to coerce to idle and count (R-ACTION-VALIDATION)."""
+    try:
+        return int(np.asarray(value).item())
+    except (TypeError, ValueError):
+        raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
 
 
 def load_instance(scenario: str | Path | Mapping[str, Any], index: int | None = None,
@@ -250,14 +259,9 @@ class AssemblyGridParallelEnv(ParallelEnv):
         joint = [IDLE] * len(self.possible_agents)  # row-major, as the interpreter takes a list
         position = self._agent_position
         for agent, value in actions.items():
-            if type(value) is int:  # the common case, without NumPy's round trip
-                joint[position[agent]] = value
-                continue
-            try:
-                joint[position[agent]] = int(np.asarray(value).item())
-            except (TypeError, ValueError):
-                raise AdapterError(f"action of agent {agent!r} must be an integer in 0..{N_ACTIONS - 1}, got {value!r}") from None
-        result, truncated = self.step_joint(joint)
+            # the common case, a plain int, without NumPy's round trip
+            joint[position[agent]] = value if type(value) is int else _action(agent, value)
+        result, truncated = self._advance(joint)
         team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         agents = self.possible_agents
         obs = self._agent_views()
@@ -268,13 +272,23 @@ class AssemblyGridParallelEnv(ParallelEnv):
         infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": applied[a]} for a in agents}
         return obs, rewards, terms, truncs, infos
 
-    def step_joint(self, joint: list[int]) -> tuple[StepResult, bool]:
+    def step_joint(self, joint: Sequence[Any]) -> tuple[StepResult, bool]:
         """A-PZ-ARRAYS: one decision epoch of the joint action ``joint`` (one integer per robot, in
         ``possible_agents`` order) without the per-agent dicts; the arrays hold the new epoch.  Returns the
         interpreter's step result and whether the episode was truncated (by the horizon or ``max_cycles``).
-        :meth:`step` is this plus its dicts; batch consumers (A-GYM-ENV, training copies) call it directly."""
+        :meth:`step` is the same epoch plus its dicts; batch consumers (A-GYM-ENV, training copies) call
+        this directly.  NumPy integers are taken; anything else that is not an integer is an AdapterError."""
         if not self.agents:
             raise AdapterError("step() after the episode ended; call reset()")
+        if len(joint) != len(self.possible_agents):
+            raise AdapterError(f"step_joint() takes one action per robot ({len(self.possible_agents)}, in "
+                               f"possible_agents order), got {len(joint)}")
+        if not all(type(a) is int for a in joint):
+            joint = [_action(agent, value) for agent, value in zip(self.possible_agents, joint)]
+        return self._advance(joint)
+
+    def _advance(self, joint: list[int]) -> tuple[StepResult, bool]:
+        """The epoch of a checked joint action (plain ints, row-major): what step and step_joint share."""
         # the encoder read every robot's pending support at the last epoch: the state this step starts from
         self._supports_before = self._encoder.supports
         result = self.sim.step(joint)
