@@ -95,11 +95,6 @@ def logically_ready_occurrences(state: State, model: Model) -> list[tuple[Produc
     return out
 
 
-def ready_occurrences(state: State, model: Model) -> list[tuple[Product, OperationSpec]]:
-    """Occurrences that are logically ready and whose inputs exist (the candidate generator's input)."""
-    return [(p, op) for p, op in logically_ready_occurrences(state, model) if inputs_present(state, p, op)]
-
-
 def assign_roles(op: OperationSpec, members: tuple[Cell, ...], holder_of: dict[str, Cell]) -> tuple[tuple[Cell, str], ...] | None:
     """R-ROLE-ASSIGNMENT: bound roles to the holders of their inputs, the rest row-major in recipe order."""
     assigned: dict[Cell, str] = {}
@@ -131,7 +126,7 @@ def build_candidates(state: State, model: Model, ready: list[tuple[Product, Oper
     robots = state.robots
     item_holder = state.item_holder
     for product, op in logically_ready_occurrences(state, model) if ready is None else ready:
-        # R-READY (material): :func:`ready_occurrences`' input test, with the holders looked up once
+        # R-READY (material): :func:`inputs_present`, with the holders looked up once
         holding = [item_holder.get((product.pid, tok)) for tok in op.inputs]
         if None in holding:
             continue
