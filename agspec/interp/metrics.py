@@ -161,7 +161,7 @@ class MetricsAccumulator:
         self.samples += 1
         self.k_realized_sum += k_t
         self.coop_sum += sum(1 for a in teams if len(a.members) >= 2)
-        busy = sum(1 for r in state.robots.values() if r.busy_until > t or r.incoming is not None)  # not free (R-EXECUTION)
+        busy = [r.busy_until > t or r.incoming is not None for r in state.robots.values()].count(True)  # not free (R-EXECUTION)
         self.busy_sum += busy / len(state.robots)
         if self._k_star > 0:
             (self.util_exact if self._exact else self.util_approx).append(k_t / self._k_star)

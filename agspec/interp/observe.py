@@ -189,10 +189,10 @@ def action_masks(state: State, model: Model, options: dict[Cell, Options],
 
     ``last`` (the previous epoch's): a mask equal to the robot's previous one is the previous object
     (the shared templates are always the same objects)."""
-    t, robots, templates, last_col = state.t, state.robots, model.direction_masks, model.cols - 1
+    t, templates, last_col = state.t, model.direction_masks, model.cols - 1
     out = {}
-    for cell in model.cells:
-        robot, opts = robots[cell], options[cell]
+    # the state's robots and the option lists are keyed by every cell in row-major order (R-IDS)
+    for cell, robot, opts in zip(model.cells, state.robots.values(), options.values()):
         if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
             out[cell] = IDLE_ONLY
         elif opts is NO_OPTIONS and robot.supports is None and (robot.holding is None or cell[1] != last_col):

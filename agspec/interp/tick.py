@@ -10,6 +10,7 @@ previous step or at reset); its capacity and ready/feasible samples are taken at
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import compress
 from typing import Any, Mapping, Sequence
 
 from agspec.interp import geometry, rules
@@ -28,8 +29,8 @@ class Decision:
 
     candidates: list[Candidate]
     by_id: dict[str, Candidate]
-    options: dict[Cell, Options]
-    masks: dict[Cell, Mask]
+    options: dict[Cell, Options]  # every cell, row-major (the all-agents encoder reads the values in order)
+    masks: dict[Cell, Mask]  # every cell, row-major
     rejected: int
     compatibility: Compatibility | None = None  # M-CAPACITY's weight-free part, once it is needed
     ready: list[tuple[Product, OperationSpec]] | None = None  # R-READY's logically ready occurrences, once needed
@@ -52,6 +53,7 @@ def initial_state(model: Model) -> State:
     for entry in real["shelves"]:
         shelves[int(entry["row"])] = {tok: int(n) for tok, n in entry["stock"].items()}
     access = {int(e["shelf_row"]): tuple(int(r) for r in e["robot_rows"]) for e in real["shelf_access"]}
+    # keyed in row-major order (R-IDS): the snapshot functions read the robots in that order
     robots = {c: Robot(cell=c, pose=geometry.rest_pose(c, spacing)) for c in model.cells}
     return State(t=0, rows=model.rows, cols=model.cols, robots=robots, shelves=shelves, shelf_access=access)
 
@@ -165,12 +167,15 @@ class Simulator:
     def step(self, joint_action: Mapping[str, int] | Sequence[int]) -> StepResult:
         """Apply one joint action (robot id -> action int, or a list in row-major order)."""
         state, model, d = self.state, self.model, self.decision
-        if isinstance(joint_action, Mapping):
+        cells, n = model.cells, len(model.cells)
+        if type(joint_action) is list and len(joint_action) == n and set(map(type, joint_action)) == {int}:
+            actions = joint_action  # already one plain int per robot, row-major (read, never changed)
+        elif isinstance(joint_action, Mapping):
             actions = [int(joint_action.get(r, IDLE)) for r in model.cell_ids]
         else:
-            actions = [int(a) for _, a in zip(model.cells, joint_action)]
-            if len(actions) < len(model.cells):
-                raise KeyError(model.cells[len(actions)])  # one action per robot, row-major
+            actions = [int(a) for _, a in zip(cells, joint_action)]
+            if len(actions) < n:
+                raise KeyError(cells[len(actions)])  # one action per robot, row-major
         result = StepResult(t=state.t)
         events = result.events
         # what R-CANDIDATES reads changes only with these (and completions)
@@ -187,28 +192,28 @@ class Simulator:
         receives: dict[Cell, int] = {}
         supports: dict[Cell, Candidate] = {}
         deliverers: list[Cell] = []
-        masks, options, applied = d.masks, d.options, result.applied
-        for c, robot_id, a in zip(model.cells, model.cell_ids, actions):
+        masks, options = d.masks, d.options
+        result.applied = applied = dict(zip(model.cell_ids, actions))  # idle is always legal (INV-MASKING)
+        for k in compress(range(n), actions):  # the robots that did not idle, row-major
+            c, a = cells[k], actions[k]
             if not (0 <= a < N_ACTIONS) or not masks[c][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")
-                if a != IDLE:
-                    rules.bump(state, "unmasked_invalid_attempts")
-                events.append({"type": "action_coerced", "robot": robot_id, "action": a})
-                a = IDLE
-            applied[robot_id] = a
-            if a != IDLE:  # O-ACTION-ENCODING: slots name the robot's options
-                kind, arg = decode(a, options[c])
-                if kind == "support":
-                    supports[c] = arg
-                elif kind == "handoff":
-                    sends[c] = arg
-                elif kind == "receive":
-                    receives[c] = arg
-                elif kind == "pick":
-                    picks.append((c, arg))
-                else:  # deliver
-                    deliverers.append(c)
+                rules.bump(state, "unmasked_invalid_attempts")  # a != IDLE here
+                events.append({"type": "action_coerced", "robot": model.cell_ids[k], "action": a})
+                applied[model.cell_ids[k]] = IDLE
+                continue
+            kind, arg = decode(a, options[c])  # O-ACTION-ENCODING: slots name the robot's options
+            if kind == "support":
+                supports[c] = arg
+            elif kind == "handoff":
+                sends[c] = arg
+            elif kind == "receive":
+                receives[c] = arg
+            elif kind == "pick":
+                picks.append((c, arg))
+            else:  # deliver
+                deliverers.append(c)
 
         progress = 0  # R-NO-PROGRESS: admissions and completions of this tick
         # step 3: R-PICK

@@ -25,6 +25,9 @@ to recorded digests and to ``encode_observation`` of every record, on generated 
 
 from __future__ import annotations
 
+from itertools import compress
+from operator import is_not, ne
+
 import numpy as np
 
 from agspec.interp.model import Model
@@ -57,6 +60,8 @@ class BatchEncoder:
         self.obs = np.zeros((n, OBS_DIM), dtype=np.float32)  # the arrays each epoch is written into
         self.mask = np.zeros((n, N_ACTIONS), dtype=np.int8)
         self._table = np.zeros((n + 1, NEIGHBOUR_DIM), dtype=np.float32)
+        self._flat_neighbours = self.neighbours.ravel()
+        self._gathered = np.zeros((n * 8, NEIGHBOUR_DIM), dtype=np.float32)
         # the pure slot functions' rows, remembered per input (their inputs rarely change between steps)
         self._rows: dict[tuple, list[float]] = {}
         self._slots: dict[tuple, tuple[object, list[float]]] = {}
@@ -157,13 +162,14 @@ class BatchEncoder:
         keys = [(r.holding, r.busy_until > t or r.incoming is not None, r.op_label, r.role_label) for r in robots]
         if keys != self._keys:
             table = self._table
-            for k in [k for k, key, last in zip(range(n), keys, self._keys) if key != last]:
+            for k in compress(range(n), map(ne, keys, self._keys)):
                 table[k] = self._row(state, keys[k])
             self._keys = keys
             self.obs[:, 0:7] = table[:n, 1:8]
-            self.obs[:, SELF_DIM:_COUNTS_AT] = table[self.neighbours].reshape(n, 8 * NEIGHBOUR_DIM)
-        opts = [options[c] for c in cells]
-        rewrite = {k for k, o, last in zip(range(n), opts, self._options) if o is not last}
+            np.take(table, self._flat_neighbours, axis=0, out=self._gathered)  # every observer's 8 neighbour rows
+            self.obs[:, SELF_DIM:_COUNTS_AT] = self._gathered.reshape(n, 8 * NEIGHBOUR_DIM)
+        opts = list(options.values())  # the snapshot's dicts hold every cell in row-major order
+        rewrite = set(compress(range(n), map(is_not, opts, self._options)))
         supports = [r.supports for r in robots]
         if supports != self.supports:
             for k in [k for k, s, last in zip(range(n), supports, self.supports) if s != last]:
@@ -178,8 +184,8 @@ class BatchEncoder:
         if t != self._t:
             self.obs[:, 11] = _saturate(float(t))
             self._t = t
-        ms = [masks[c] for c in cells]
-        for k in [k for k, m, last in zip(range(n), ms, self._masks) if m is not last]:
+        ms = list(masks.values())
+        for k in compress(range(n), map(is_not, ms, self._masks)):
             self.mask[k] = self._mask_row(ms[k])
         self._masks = ms
 

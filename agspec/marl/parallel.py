@@ -172,7 +172,6 @@ class AssemblyGridParallelEnv(ParallelEnv):
             raise AdapterError("a new instance must keep the grid size of the environment's scenario")
         self.possible_agents = agents
         self._agent_set = frozenset(agents)
-        self._agent_position = {agent: k for k, agent in enumerate(agents)}
         self.agents = []
         if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
             self._observation_spaces = {a: spaces.Dict({
@@ -223,8 +222,8 @@ class AssemblyGridParallelEnv(ParallelEnv):
         self.last_events = list(self.sim.reset_events)
         self._cycles = 0
         self._encode()
-        obs = self._agent_views()
-        return obs, {a: {"action_mask": obs[a]["action_mask"]} for a in self.agents}
+        obs, masks = self._agent_views()
+        return obs, {agent: {"action_mask": mask} for agent, mask in zip(self.possible_agents, masks)}
 
     def _encode(self) -> None:
         # A-OBS-VECTOR and O-MASK of every agent into two new arrays (the same bytes as encode_observation
@@ -233,10 +232,11 @@ class AssemblyGridParallelEnv(ParallelEnv):
         self.observation_array, self.action_mask_array = self._encoder.encode(
             self.sim.state, decision.options, decision.masks)
 
-    def _agent_views(self) -> dict[str, dict[str, np.ndarray]]:
-        # each agent's entries are row views of the arrays (A-PZ-ARRAYS)
-        return {robot: {"observation": vector, "action_mask": mask}
-                for robot, vector, mask in zip(self.possible_agents, self.observation_array, self.action_mask_array)}
+    def _agent_views(self) -> tuple[dict[str, dict[str, np.ndarray]], list[np.ndarray]]:
+        # each agent's entries are row views of the arrays (A-PZ-ARRAYS); the mask rows serve the infos too
+        masks = list(self.action_mask_array)
+        return {agent: {"observation": vector, "action_mask": mask}
+                for agent, vector, mask in zip(self.possible_agents, self.observation_array, masks)}, masks
 
     @property
     def supporting_before(self) -> dict[str, bool]:
@@ -256,20 +256,21 @@ class AssemblyGridParallelEnv(ParallelEnv):
         if not known.issuperset(actions):
             unknown = [a for a in actions if a not in known]
             raise AdapterError(f"unknown agent(s) {unknown}; agents are robot ids such as {self.possible_agents[0]!r}")
-        joint = [IDLE] * len(self.possible_agents)  # row-major, as the interpreter takes a list
-        position = self._agent_position
-        for agent, value in actions.items():
-            # the common case, a plain int, without NumPy's round trip
-            joint[position[agent]] = value if type(value) is int else _action(agent, value)
+        agents = self.possible_agents
+        if len(actions) == len(agents):  # every agent named (the superset test above): in agent order
+            joint = list(map(actions.__getitem__, agents))
+        else:
+            joint = [actions.get(agent, IDLE) for agent in agents]  # row-major, as the interpreter takes a list
+        if set(map(type, joint)) != {int}:  # the common case, plain ints, without NumPy's round trip
+            joint = [value if type(value) is int else _action(agent, value) for agent, value in zip(agents, joint)]
         result, truncated = self._advance(joint)
         team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
-        agents = self.possible_agents
-        obs = self._agent_views()
+        obs, masks = self._agent_views()
         rewards = dict.fromkeys(agents, team)
         terms = dict.fromkeys(agents, bool(result.terminated))
         truncs = dict.fromkeys(agents, bool(truncated))
-        applied = result.applied
-        infos = {a: {"action_mask": obs[a]["action_mask"], "applied_action": applied[a]} for a in agents}
+        infos = {agent: {"action_mask": mask, "applied_action": applied}
+                 for agent, mask, applied in zip(agents, masks, map(result.applied.__getitem__, agents))}
         return obs, rewards, terms, truncs, infos
 
     def step_joint(self, joint: Sequence[Any]) -> tuple[StepResult, bool]:
