@@ -173,6 +173,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         self.possible_agents = agents
         self._agent_set = frozenset(agents)
         self.agents = []
+        self._uniform_dicts: dict[tuple[type, str], dict[str, Any]] = {}  # see _uniform
         if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
             self._observation_spaces = {a: spaces.Dict({
                 "observation": spaces.Box(0.0, 1.0, (OBS_DIM,), np.float32),
@@ -238,6 +239,18 @@ class AssemblyGridParallelEnv(ParallelEnv):
         return {agent: {"observation": vector, "action_mask": mask}
                 for agent, vector, mask in zip(self.possible_agents, self.observation_array, masks)}, masks
 
+    def _uniform(self, value: Any) -> dict[str, Any]:
+        """A new dict mapping every agent to ``value``, the caller's to keep: a copy of one kept per value
+        (copying skips hashing the agent names again).  Keyed by type and repr, so 0.0, -0.0, 0 and
+        False stay apart; a handful of values (rewards, flags) recur, and the memo starts over past 16."""
+        key = (type(value), repr(value))
+        kept = self._uniform_dicts.get(key)
+        if kept is None:
+            if len(self._uniform_dicts) >= 16:
+                self._uniform_dicts.clear()
+            kept = self._uniform_dicts[key] = dict.fromkeys(self.possible_agents, value)
+        return kept.copy()
+
     @property
     def supporting_before(self) -> dict[str, bool]:
         """Which robots held a pending support before the last step (the c_sup input of A-REWARD-MILESTONE)."""
@@ -266,9 +279,8 @@ class AssemblyGridParallelEnv(ParallelEnv):
         result, truncated = self._advance(joint)
         team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         obs, masks = self._agent_views()
-        rewards = dict.fromkeys(agents, team)
-        terms = dict.fromkeys(agents, bool(result.terminated))
-        truncs = dict.fromkeys(agents, bool(truncated))
+        rewards, terms, truncs = (self._uniform(team), self._uniform(bool(result.terminated)),
+                                  self._uniform(bool(truncated)))
         infos = {agent: {"action_mask": mask, "applied_action": applied}
                  for agent, mask, applied in zip(agents, masks, map(result.applied.__getitem__, agents))}
         return obs, rewards, terms, truncs, infos
