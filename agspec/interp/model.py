@@ -250,6 +250,12 @@ class Model:
         return out
 
     @cached_property
+    def mask_rows(self) -> tuple[tuple[Cell, tuple[bool, ...], tuple[bool, ...], bool], ...]:
+        """Per cell in row-major order: the cell, its receive and handoff templates (:attr:`direction_masks`)
+        and whether it is in the output column (R-DELIVERY), what O-MASK's commonest answers read."""
+        return tuple((c, *self.direction_masks[c], c[1] == self.cols - 1) for c in self.cells)
+
+    @cached_property
     def conflict_parameters(self) -> tuple[float, float, bool]:
         """G-CONFLICT's profile parameters: rho_conf, the clearance (homogeneous population: one for
         all robots) and whether trajectory segments are tested (variant ``trajectory_conflicts``)."""

@@ -189,14 +189,17 @@ def action_masks(state: State, model: Model, options: dict[Cell, Options],
 
     ``last`` (the previous epoch's): a mask equal to the robot's previous one is the previous object
     (the shared templates are always the same objects)."""
-    t, templates, last_col = state.t, model.direction_masks, model.cols - 1
+    t = state.t
     out = {}
     # the state's robots and the option lists are keyed by every cell in row-major order (R-IDS)
-    for cell, robot, opts in zip(model.cells, state.robots.values(), options.values()):
+    for (cell, receive, handoff, output_column), robot, opts in zip(model.mask_rows, state.robots.values(),
+                                                                      options.values()):
         if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
             out[cell] = IDLE_ONLY
-        elif opts is NO_OPTIONS and robot.supports is None and (robot.holding is None or cell[1] != last_col):
-            out[cell] = templates[cell][0 if robot.holding is None else 1]  # R-DELIVERY: output column only
+        elif opts is NO_OPTIONS and robot.supports is None and robot.holding is None:
+            out[cell] = receive
+        elif opts is NO_OPTIONS and robot.supports is None and not output_column:  # R-DELIVERY: output column only
+            out[cell] = handoff
         else:
             mask = action_mask(state, model, cell, opts)
             kept = last.get(cell) if last is not None else None
@@ -220,13 +223,13 @@ def _kind(action: int) -> tuple[str, int | None]:
 
 
 # one entry per action integer: (kind, pick or operation slot, or handoff or receive direction)
-_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
+ACTION_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
 
 
 def decode(action: int, options: Options) -> tuple[str, Any]:
     """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
     the direction of a handoff or receive."""
-    entry = _KINDS[action]
+    entry = ACTION_KINDS[action]
     kind = entry[0]
     if kind == "pick":
         return (kind, options.picks[entry[1]])

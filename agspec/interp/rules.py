@@ -417,6 +417,7 @@ def complete_activities(state: State, model: Model, events: Events) -> int:
     """
     t = state.t
     progress = 0
+    freed: list[Cell] = []
     for act in [a for a in state.activities if a.end <= t]:
         for m, pose in act.plan.final_poses().items():
             state.robots[m].pose = pose  # G-END-EFFECTOR: the effector stays at its target
@@ -433,9 +434,13 @@ def complete_activities(state: State, model: Model, events: Events) -> int:
         for m in act.members:
             if state.robots[m].activity == act.aid:
                 state.robots[m].activity = None
-    for robot in state.robots.values():
-        # clearing labels that are already None changes nothing: only labelled robots are tested
-        if (robot.op_label is not None or robot.role_label is not None) and robot.free(t):
+        freed.extend(act.members)
+    # labels are set only on the members of an activity as it starts, and a robot becomes free only
+    # when an activity it is a member of completes (R-EXECUTION): those members are the robots that
+    # can be labelled and free now
+    for cell in freed:
+        robot = state.robots[cell]
+        if robot.free(t):
             robot.op_label = robot.role_label = None
     return progress
 

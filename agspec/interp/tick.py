@@ -18,7 +18,7 @@ from agspec.interp.candidates import Candidate, build_candidates, inputs_present
 from agspec.interp.candidates import surviving_candidates
 from agspec.interp.metrics import Compatibility, MetricsAccumulator, capacity_snapshot, compatibility
 from agspec.interp.model import Model, OperationSpec
-from agspec.interp.observe import IDLE, N_ACTIONS, Mask, Options, action_masks, build_options, decode
+from agspec.interp.observe import ACTION_KINDS, IDLE, N_ACTIONS, Mask, Options, action_masks, build_options
 from agspec.interp.observe import epoch_views, observation
 from agspec.interp.state import Cell, Product, Robot, State, cell_id
 
@@ -203,15 +203,16 @@ class Simulator:
                 events.append({"type": "action_coerced", "robot": model.cell_ids[k], "action": a})
                 applied[model.cell_ids[k]] = IDLE
                 continue
-            kind, arg = decode(a, options[c])  # O-ACTION-ENCODING: slots name the robot's options
-            if kind == "support":
-                supports[c] = arg
+            # O-ACTION-ENCODING (decode, with its table read here: most robots act every epoch)
+            kind, slot = ACTION_KINDS[a]
+            if kind == "receive":
+                receives[c] = slot
             elif kind == "handoff":
-                sends[c] = arg
-            elif kind == "receive":
-                receives[c] = arg
+                sends[c] = slot
+            elif kind == "support":
+                supports[c] = options[c].operations[slot]  # slots name the robot's options
             elif kind == "pick":
-                picks.append((c, arg))
+                picks.append((c, options[c].picks[slot]))
             else:  # deliver
                 deliverers.append(c)
 
