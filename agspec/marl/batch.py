@@ -166,7 +166,7 @@ class BatchEncoder:
                 table[k] = self._row(state, keys[k])
             self._keys = keys
             self.obs[:, 0:7] = table[:n, 1:8]
-            np.take(table, self._flat_neighbours, axis=0, out=self._gathered)  # every observer's 8 neighbour rows
+            table.take(self._flat_neighbours, axis=0, out=self._gathered)  # every observer's 8 neighbour rows
             self.obs[:, SELF_DIM:_COUNTS_AT] = self._gathered.reshape(n, 8 * NEIGHBOUR_DIM)
         opts = list(options.values())  # the snapshot's dicts hold every cell in row-major order
         rewrite = set(compress(range(n), map(is_not, opts, self._options)))
