@@ -192,11 +192,11 @@ class Simulator:
         receives: dict[Cell, int] = {}
         supports: dict[Cell, Candidate] = {}
         deliverers: list[Cell] = []
-        masks, options = d.masks, d.options
+        masks, options = list(d.masks.values()), d.options  # masks: row-major, as the actions
         result.applied = applied = dict(zip(model.cell_ids, actions))  # idle is always legal (INV-MASKING)
         for k in compress(range(n), actions):  # the robots that did not idle, row-major
-            c, a = cells[k], actions[k]
-            if not (0 <= a < N_ACTIONS) or not masks[c][a]:
+            a = actions[k]
+            if not (0 <= a < N_ACTIONS) or not masks[k][a]:
                 rules.bump(state, "invalid_attempts")
                 rules.bump(state, "reject_locally_invalid")
                 rules.bump(state, "unmasked_invalid_attempts")  # a != IDLE here
@@ -204,7 +204,7 @@ class Simulator:
                 applied[model.cell_ids[k]] = IDLE
                 continue
             # O-ACTION-ENCODING (decode, with its table read here: most robots act every epoch)
-            kind, slot = ACTION_KINDS[a]
+            c, (kind, slot) = cells[k], ACTION_KINDS[a]
             if kind == "receive":
                 receives[c] = slot
             elif kind == "handoff":
