@@ -222,20 +222,9 @@ def _kind(action: int) -> tuple[str, int | None]:
     return ("support", action - OP0)
 
 
-# one entry per action integer: (kind, pick or operation slot, or handoff or receive direction)
+# O-ACTION-ENCODING, decoded: one entry per action integer, (kind, pick or operation slot, or handoff or
+# receive direction); a pick or support slot names the robot's option in that slot (Options.picks, .operations)
 ACTION_KINDS = tuple(_kind(a) for a in range(N_ACTIONS))
-
-
-def decode(action: int, options: Options) -> tuple[str, Any]:
-    """O-ACTION-ENCODING: integer action -> (kind, argument): the pick or operation option of its slot,
-    the direction of a handoff or receive."""
-    entry = ACTION_KINDS[action]
-    kind = entry[0]
-    if kind == "pick":
-        return (kind, options.picks[entry[1]])
-    if kind == "support":
-        return (kind, options.operations[entry[1]])
-    return entry
 
 
 def _held(state: State, model: Model, cell: Cell) -> dict[str, Any] | None:

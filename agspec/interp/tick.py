@@ -203,7 +203,7 @@ class Simulator:
                 events.append({"type": "action_coerced", "robot": model.cell_ids[k], "action": a})
                 applied[model.cell_ids[k]] = IDLE
                 continue
-            # O-ACTION-ENCODING (decode, with its table read here: most robots act every epoch)
+            # O-ACTION-ENCODING: the action's kind and slot or direction, from the decoding table
             c, (kind, slot) = cells[k], ACTION_KINDS[a]
             if kind == "receive":
                 receives[c] = slot
