@@ -10,6 +10,7 @@ coerced-action event for one form shows up as a difference between the forms.
 
 from __future__ import annotations
 
+import copy
 import random
 
 import numpy as np
@@ -91,20 +92,17 @@ def test_every_form_of_a_joint_action_steps_alike(scenario, data):
 
 
 def _clone(sim: Simulator):
-    import copy
-
     # one deep copy of everything a step reads and writes, so every form starts from the same epoch
     # (the model and its memos are shared: they are pure functions of their keys)
     return copy.deepcopy((sim.state, sim.decision, sim.metrics), memo={id(sim.model): sim.model})
-
-
-pettingzoo = pytest.importorskip("pettingzoo", reason="the MARL extra is not installed: pip install 'agspec[marl]'")
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**16))
 def test_every_dict_form_of_a_pettingzoo_step_is_its_joint_step(scenario, seed):
+    # the interpreter's test above needs no MARL extra; only this one is skipped without it
+    pytest.importorskip("pettingzoo", reason="the MARL extra is not installed: pip install 'agspec[marl]'")
     from agspec.pettingzoo import parallel_env
 
     envs = [parallel_env(scenario, index=1000) for _ in range(4)]

@@ -196,10 +196,8 @@ def action_masks(state: State, model: Model, options: dict[Cell, Options],
                                                                       options.values()):
         if robot.busy_until > t or robot.incoming is not None:  # not free (R-EXECUTION)
             out[cell] = IDLE_ONLY
-        elif opts is NO_OPTIONS and robot.supports is None and robot.holding is None:
-            out[cell] = receive
-        elif opts is NO_OPTIONS and robot.supports is None and not output_column:  # R-DELIVERY: output column only
-            out[cell] = handoff
+        elif opts is NO_OPTIONS and robot.supports is None and (robot.holding is None or not output_column):
+            out[cell] = receive if robot.holding is None else handoff  # R-DELIVERY: output column only
         else:
             mask = action_mask(state, model, cell, opts)
             kept = last.get(cell) if last is not None else None

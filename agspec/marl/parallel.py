@@ -29,6 +29,14 @@ class AdapterError(ValueError):
     """A bad scenario, instance or option given to an adapter (message names what and where)."""
 
 
+def _plain_ints(agents: Sequence[str], joint: list[Any]) -> list[int]:
+    """A joint action (one value per agent, in order) as plain ints: the common case, plain ints already,
+    without NumPy's round trip; an AdapterError names the agent of a value that is not an integer."""
+    if set(map(type, joint)) == {int}:
+        return joint
+    return [value if type(value) is int else _action(agent, value) for agent, value in zip(agents, joint)]
+
+
 def _action(agent: str, value: Any) -> int:
     """An agent's action as an int (NumPy scalars and 0-d arrays too); AdapterError names the agent.
     Out-of-range integers are the interpreter's to coerce to idle and count (R-ACTION-VALIDATION)."""
@@ -173,7 +181,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         self.possible_agents = agents
         self._agent_set = frozenset(agents)
         self.agents = []
-        self._uniform_dicts: dict[tuple[type, str], dict[str, Any]] = {}  # see _uniform
+        self._all_false = dict.fromkeys(agents, False)  # what terminations and truncations are until the end
         if not hasattr(self, "_action_spaces"):  # one space object per agent for the env's lifetime (A-PZ-SPACES)
             self._observation_spaces = {a: spaces.Dict({
                 "observation": spaces.Box(0.0, 1.0, (OBS_DIM,), np.float32),
@@ -239,18 +247,6 @@ class AssemblyGridParallelEnv(ParallelEnv):
         return {agent: {"observation": vector, "action_mask": mask}
                 for agent, vector, mask in zip(self.possible_agents, self.observation_array, masks)}, masks
 
-    def _uniform(self, value: Any) -> dict[str, Any]:
-        """A new dict mapping every agent to ``value``, the caller's to keep: a copy of one kept per value
-        (copying skips hashing the agent names again).  Keyed by type and repr, so 0.0, -0.0, 0 and
-        False stay apart; a handful of values (rewards, flags) recur, and the memo starts over past 16."""
-        key = (type(value), repr(value))
-        kept = self._uniform_dicts.get(key)
-        if kept is None:
-            if len(self._uniform_dicts) >= 16:
-                self._uniform_dicts.clear()
-            kept = self._uniform_dicts[key] = dict.fromkeys(self.possible_agents, value)
-        return kept.copy()
-
     @property
     def supporting_before(self) -> dict[str, bool]:
         """Which robots held a pending support before the last step (the c_sup input of A-REWARD-MILESTONE)."""
@@ -274,13 +270,13 @@ class AssemblyGridParallelEnv(ParallelEnv):
             joint = list(map(actions.__getitem__, agents))
         else:
             joint = [actions.get(agent, IDLE) for agent in agents]  # row-major, as the interpreter takes a list
-        if set(map(type, joint)) != {int}:  # the common case, plain ints, without NumPy's round trip
-            joint = [value if type(value) is int else _action(agent, value) for agent, value in zip(agents, joint)]
-        result, truncated = self._advance(joint)
+        result, truncated = self._advance(_plain_ints(agents, joint))
         team = delivered_value(result.events, self.sim.state.products)  # A-REWARD-SPARSE
         obs, masks = self._agent_views()
-        rewards, terms, truncs = (self._uniform(team), self._uniform(bool(result.terminated)),
-                                  self._uniform(bool(truncated)))
+        rewards = dict.fromkeys(agents, team)
+        # a copy of a kept dict skips hashing every agent name again; the caller owns what it gets
+        terms = dict.fromkeys(agents, True) if result.terminated else self._all_false.copy()
+        truncs = dict.fromkeys(agents, True) if truncated else self._all_false.copy()
         infos = {agent: {"action_mask": mask, "applied_action": applied}
                  for agent, mask, applied in zip(agents, masks, map(result.applied.__getitem__, agents))}
         return obs, rewards, terms, truncs, infos
@@ -296,9 +292,7 @@ class AssemblyGridParallelEnv(ParallelEnv):
         if len(joint) != len(self.possible_agents):
             raise AdapterError(f"step_joint() takes one action per robot ({len(self.possible_agents)}, in "
                                f"possible_agents order), got {len(joint)}")
-        if not all(type(a) is int for a in joint):
-            joint = [_action(agent, value) for agent, value in zip(self.possible_agents, joint)]
-        return self._advance(joint)
+        return self._advance(_plain_ints(self.possible_agents, list(joint)))
 
     def _advance(self, joint: list[int]) -> tuple[StepResult, bool]:
         """The epoch of a checked joint action (plain ints, row-major): what step and step_joint share."""
