@@ -26,7 +26,6 @@ import time
 from pathlib import Path
 
 import supersuit as ss
-import torch
 from sb3_contrib import MaskablePPO
 from stable_baselines3.common.vec_env import VecEnvWrapper
 

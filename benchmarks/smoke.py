@@ -24,6 +24,7 @@ QUICK = [
     ["bench_marl.py", "--steps", "20", "--scenario", "coalition-medium"],
     ["bench_throughput.py", "--steps", "20", "--reps", "1", "--scenario", "coalition-medium", "--controller", "greedy"],
     ["bench_episodes.py", "--controller", "greedy", "--floor"],
+    ["bench_step_parts.py", "--steps", "20", "--episodes", "1", "--reps", "1", "--scenario", "coalition-medium"],
 ]
 
 if __name__ == "__main__":
